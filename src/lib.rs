@@ -1,0 +1,20 @@
+//! mocap2d: capture the motion of a character's joints from a 2D video and retarget it.
+//!
+//! The pipeline, one module a stage, data flowing one way:
+//! [`decode`] (frames in) → [`background`] (clean plate, foreground mask) → [`track`] (template,
+//! Kalman filter, search) → [`run`] (run folder, manifest). [`synth`] renders test clips with
+//! ground truth. Coordinates and units are stated once in [`geom`]'s Conventions.
+
+pub mod atomic;
+pub mod background;
+pub mod decode;
+#[cfg(feature = "ffmpeg")]
+pub mod encode;
+pub mod error;
+pub mod geom;
+pub mod seed;
+pub mod skeleton;
+pub mod synth;
+pub mod track;
+
+pub use error::{Error, Result};
