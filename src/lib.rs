@@ -5,13 +5,17 @@
 //! Kalman filter, search) → [`run`] (run folder, manifest). [`synth`] renders test clips with
 //! ground truth. Coordinates and units are stated once in [`geom`]'s Conventions.
 
+pub mod app;
 pub mod atomic;
 pub mod background;
+pub mod cli;
 pub mod decode;
 #[cfg(feature = "ffmpeg")]
 pub mod encode;
 pub mod error;
 pub mod geom;
+pub mod progress;
+pub mod run;
 pub mod seed;
 pub mod skeleton;
 pub mod synth;

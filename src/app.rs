@@ -1,0 +1,184 @@
+//! Commands, as library calls: each validates its inputs completely before writing anything,
+//! then runs the stages in order. `main.rs` only parses flags and reports.
+
+use crate::background::Background;
+use crate::decode::{self, FrameSource};
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::run::{hash_clip, ClipId, Manifest, TracksWriter};
+use crate::seed::{read_seeds, Seeds};
+use crate::track::{JointEstimate, TrackParams, Tracker};
+use image::RgbImage;
+use std::path::{Path, PathBuf};
+
+/// Frames sampled across the clip for the temporal-median clean plate.
+pub const BACKGROUND_SAMPLES: usize = 25;
+
+/// Options of `mocap2d track`.
+#[derive(Debug, Clone)]
+pub struct TrackOptions {
+    pub clip: PathBuf,
+    pub seeds: PathBuf,
+    /// Run folder; default `<clip stem>.mocap` beside the clip.
+    pub out: Option<PathBuf>,
+    /// Frame rate for image folders (and override for videos).
+    pub fps: Option<f64>,
+    /// A clean plate instead of the temporal median.
+    pub background: Option<PathBuf>,
+    /// Skip background subtraction altogether.
+    pub no_background: bool,
+    pub params: TrackParams,
+}
+
+/// What a finished `track` reports.
+#[derive(Debug, Clone)]
+pub struct TrackSummary {
+    pub run_dir: PathBuf,
+    pub frames: u64,
+    pub tracked_frames: u64,
+    pub joints: usize,
+    /// Joint-frames per status word.
+    pub status_counts: Vec<(String, u64)>,
+}
+
+/// The default run folder for a clip: `<stem>.mocap` beside it.
+pub fn default_run_dir(clip: &Path) -> PathBuf {
+    let stem = clip.file_stem().map(|s| s.to_os_string()).unwrap_or_else(|| "clip".into());
+    let mut name = stem;
+    name.push(".mocap");
+    clip.parent().unwrap_or(Path::new(".")).join(name)
+}
+
+/// Builds the background model the options ask for.
+pub fn background_for(opts: &TrackOptions, width: u32, height: u32) -> Result<(Option<Background>, String)> {
+    if opts.no_background {
+        return Ok((None, "none".into()));
+    }
+    if let Some(plate) = &opts.background {
+        return Ok((Some(Background::from_plate_file(plate, width, height)?), format!("plate:{}", plate.display())));
+    }
+    let samples = decode::sample_frames(&opts.clip, BACKGROUND_SAMPLES)?;
+    let n = samples.len();
+    Ok((Some(Background::fit(&samples)?), format!("median:{n}")))
+}
+
+/// Tracks every frame from the seed frame on, calling `sink` with each frame's estimates (the
+/// seed frame first). Frames before the seed frame are decoded and skipped. Returns the number
+/// of frames the source delivered in all.
+pub fn track_frames(
+    frames: impl Iterator<Item = Result<(u64, RgbImage)>>,
+    seeds: &Seeds,
+    params: &TrackParams,
+    background: Option<Background>,
+    progress: &dyn Progress,
+    mut sink: impl FnMut(u64, &[JointEstimate]) -> Result<()>,
+) -> Result<u64> {
+    let mut tracker: Option<Tracker> = None;
+    let mut background = background;
+    let mut count = 0;
+    for item in frames {
+        let (idx, frame) = item?;
+        count = idx + 1;
+        if idx < seeds.frame {
+            if !progress.advance(1) {
+                return Err(Error::Interrupted);
+            }
+            continue;
+        }
+        match tracker.as_mut() {
+            None => {
+                let t = Tracker::new(params.clone(), seeds, &frame, background.take());
+                sink(idx, &t.current())?;
+                tracker = Some(t);
+            }
+            Some(t) => {
+                let est = t.step(&frame);
+                sink(idx, &est)?;
+            }
+        }
+        if !progress.advance(1) {
+            return Err(Error::Interrupted);
+        }
+    }
+    Ok(count)
+}
+
+/// `mocap2d track`: decode → background → track, writing the run folder.
+pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummary> {
+    // Validate everything before anything is written.
+    let (seeds, seed_text) = read_seeds(&opts.seeds)?;
+    let source: Box<dyn FrameSource> = decode::open(&opts.clip, opts.fps)?;
+    let info = source.info().clone();
+    seeds.check_against_clip(&opts.seeds, info.width, info.height, info.frame_count_hint)?;
+    let run_dir = opts.out.clone().unwrap_or_else(|| default_run_dir(&opts.clip));
+    if run_dir.exists() && !run_dir.is_dir() {
+        return Err(Error::Usage(format!("{}: exists and is not a folder; choose another --out", run_dir.display())));
+    }
+    progress.start("background", None);
+    let (background, bg_desc) = background_for(opts, info.width, info.height)?;
+    let threshold = background.as_ref().map_or(0, |b| b.threshold);
+    progress.finish();
+
+    std::fs::create_dir_all(&run_dir).map_err(|e| Error::io(&run_dir, e))?;
+    let tracks_path = run_dir.join("tracks.csv");
+    let mut writer = TracksWriter::create(&tracks_path)?;
+    let names: Vec<String> = seeds.joints.iter().map(|j| j.name.clone()).collect();
+    let mut counts = std::collections::BTreeMap::<&'static str, u64>::new();
+    let mut tracked = 0u64;
+    progress.start("track", info.frame_count_hint);
+    let rx = decode::spawn_reader(source, 8);
+    let result = track_frames(rx.into_iter(), &seeds, &opts.params, background, progress, |idx, est| {
+        tracked += 1;
+        for e in est {
+            *counts.entry(e.status.as_str()).or_default() += 1;
+        }
+        writer.write_frame(idx, &names, est)
+    });
+    progress.finish();
+    let frames = match result {
+        Ok(n) => n,
+        Err(e) => {
+            let _ = std::fs::remove_file(crate::atomic::temp_path(&tracks_path));
+            return Err(e);
+        }
+    };
+    if tracked == 0 {
+        let _ = std::fs::remove_file(crate::atomic::temp_path(&tracks_path));
+        return Err(Error::Seed {
+            path: opts.seeds.clone(),
+            line: None,
+            joint: None,
+            msg: format!(
+                "frame = {} is beyond the clip, which has {frames} frames (0..{}); set `frame` to a frame of the clip",
+                seeds.frame,
+                frames.saturating_sub(1)
+            ),
+        });
+    }
+    writer.finish()?;
+    let (bytes, blake3) = hash_clip(&opts.clip)?;
+    let manifest = Manifest {
+        tool: "mocap2d".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        clip: ClipId { path: opts.clip.display().to_string(), bytes, blake3 },
+        width: info.width,
+        height: info.height,
+        fps: info.fps,
+        frames,
+        seed_frame: seeds.frame,
+        joints: seeds.joints.len(),
+        seeds_blake3: blake3::hash(seed_text.as_bytes()).to_hex().to_string(),
+        background: bg_desc,
+        background_threshold: threshold,
+        params: opts.params.clone(),
+    };
+    crate::atomic::write(&run_dir.join("seeds.toml"), seed_text.as_bytes())?;
+    crate::atomic::write(&run_dir.join("run.toml"), manifest.to_toml().as_bytes())?;
+    Ok(TrackSummary {
+        run_dir,
+        frames,
+        tracked_frames: tracked,
+        joints: seeds.joints.len(),
+        status_counts: counts.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+    })
+}

@@ -1,0 +1,88 @@
+//! Command-line interface (clap derive). Thin: turns flags into library options.
+
+use crate::track::TrackParams;
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Debug, Parser)]
+#[command(name = "mocap2d", version, about = "Capture joint motion from a 2D video and retarget it")]
+pub struct Cli {
+    /// No progress bars (they are also off when stderr is not a terminal).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Track the joints of a seed file through a clip (video file or folder of numbered frames).
+    Track(TrackArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TrackArgs {
+    /// The clip: a video FFmpeg decodes, or a folder of numbered PNG/JPEG frames.
+    pub clip: PathBuf,
+    /// Seed file: one rectangle per joint on the seed frame (see README, "Seed file").
+    #[arg(long)]
+    pub seeds: PathBuf,
+    /// Run folder to write [default: <clip stem>.mocap beside the clip].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Frame rate in frames/s (image folders: default 30; videos: overrides the stream's).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// A clean plate (image of the background alone, clip-sized) instead of the temporal median.
+    #[arg(long, value_name = "PLATE")]
+    pub background: Option<PathBuf>,
+    /// Do not subtract the background.
+    #[arg(long, conflicts_with = "background")]
+    pub no_background: bool,
+    /// Tracking parameters (TOML, keys as in run.toml's [params]); unset keys keep their defaults.
+    #[arg(long, value_name = "TOML")]
+    pub params: Option<PathBuf>,
+}
+
+/// Parses `WIDTHxHEIGHT` (px).
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 640x360"))?;
+    let p = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 640x360"));
+    let (w, h) = (p(w)?, p(h)?);
+    if w < 16 || h < 16 || w > 8192 || h > 8192 || w % 2 == 1 || h % 2 == 1 {
+        return Err(format!("{s:?}: width and height must be even, from 16 to 8192 px"));
+    }
+    Ok((w, h))
+}
+
+/// Reads a tracking-parameter TOML file; unknown keys are errors naming the key.
+pub fn read_params(path: Option<&std::path::Path>) -> crate::Result<TrackParams> {
+    let Some(path) = path else { return Ok(TrackParams::default()) };
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| crate::Error::Usage(format!("{}: cannot read the parameter file: {e}", path.display())))?;
+    toml::from_str(&text).map_err(|e| crate::Error::Usage(format!("{}: {}", path.display(), e.message())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_track_flags() {
+        let cli = Cli::try_parse_from(["mocap2d", "track", "a.mp4", "--seeds", "j.toml", "--fps", "24"]).unwrap();
+        match cli.command {
+            Command::Track(a) => {
+                assert_eq!(a.clip, PathBuf::from("a.mp4"));
+                assert_eq!(a.fps, Some(24.0));
+            }
+            _ => panic!("not track"),
+        }
+    }
+
+    #[test]
+    fn size_must_be_even() {
+        assert_eq!(parse_size("640x360"), Ok((640, 360)));
+        assert!(parse_size("641x360").is_err());
+        assert!(parse_size("640").is_err());
+    }
+}

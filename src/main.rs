@@ -1,0 +1,89 @@
+//! The `mocap2d` binary: parse flags, call the library, report, exit (0 ok, 2 user error, 1 failure).
+
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use mocap2d::cli::{Cli, Command};
+use mocap2d::progress::Progress;
+use mocap2d::app;
+use std::io::IsTerminal;
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+/// indicatif bars on stderr, one per stage.
+struct Bars {
+    on: bool,
+    bar: Mutex<Option<ProgressBar>>,
+}
+
+impl Progress for Bars {
+    fn start(&self, stage: &str, total: Option<u64>) {
+        if !self.on {
+            return;
+        }
+        let bar = match total {
+            Some(n) => ProgressBar::new(n).with_style(
+                ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} frames {per_sec} eta {eta}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+            ),
+            None => ProgressBar::new_spinner(),
+        };
+        bar.set_message(stage.to_string());
+        *self.bar.lock().unwrap_or_else(|e| e.into_inner()) = Some(bar);
+    }
+    fn advance(&self, n: u64) -> bool {
+        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            b.inc(n);
+        }
+        true
+    }
+    fn finish(&self) {
+        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            b.finish_and_clear();
+        }
+    }
+}
+
+fn run(cli: Cli) -> mocap2d::Result<()> {
+    let bars = Bars { on: !cli.quiet && std::io::stderr().is_terminal(), bar: Mutex::new(None) };
+    match cli.command {
+        Command::Track(a) => {
+            let opts = app::TrackOptions {
+                params: mocap2d::cli::read_params(a.params.as_deref())?,
+                clip: a.clip,
+                seeds: a.seeds,
+                out: a.out,
+                fps: a.fps,
+                background: a.background,
+                no_background: a.no_background,
+            };
+            let s = app::track(&opts, &bars)?;
+            let counts: Vec<String> = s.status_counts.iter().map(|(k, v)| format!("{k} {v}")).collect();
+            eprintln!(
+                "tracked {} joints over {} frames -> {} ({})",
+                s.joints,
+                s.tracked_frames,
+                s.run_dir.display(),
+                counts.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("mocap2d: {e}");
+            let mut src = std::error::Error::source(&e);
+            while let Some(s) = src {
+                eprintln!("  caused by: {s}");
+                src = s.source();
+            }
+            ExitCode::from(if e.is_user_error() { 2 } else { 1 })
+        }
+    }
+}
+

@@ -1,0 +1,84 @@
+//! `tracks.csv`: header `frame,joint,x,y,angle,score,status`.
+//!
+//! Columns: `frame` (0-based decoded index), `joint` (name from the seed file), `x`, `y`
+//! (rectangle centre, px, 3 decimals; conventions in [`crate::geom`]), `angle` (rotation of the
+//! rectangle from its seed pose, radians, 4 decimals), `score` (match confidence in [0, 1],
+//! 3 decimals), `status` (see [`crate::track::Status`]: `seed`, `ok`, `low`, `occluded`, `lost`).
+
+use crate::error::{Error, Result};
+use crate::track::JointEstimate;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The header line of `tracks.csv`.
+pub const HEADER: &str = "frame,joint,x,y,angle,score,status";
+
+/// One row of `tracks.csv`, as read back.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+pub struct TrackRow {
+    pub frame: u64,
+    pub joint: String,
+    pub x: f32,
+    pub y: f32,
+    pub angle: f32,
+    pub score: f32,
+    pub status: String,
+}
+
+/// Streams rows into `<path>.tmp`; [`TracksWriter::finish`] renames it into place, so a crash
+/// never leaves a partial `tracks.csv`.
+pub struct TracksWriter {
+    path: PathBuf,
+    tmp: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+}
+
+impl TracksWriter {
+    /// Starts writing `path` (through its temp file).
+    pub fn create(path: &Path) -> Result<Self> {
+        let tmp = crate::atomic::temp_path(path);
+        let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        let mut out = std::io::BufWriter::with_capacity(1 << 16, file);
+        writeln!(out, "{HEADER}").map_err(|e| Error::io(&tmp, e))?;
+        Ok(TracksWriter { path: path.to_owned(), tmp, out })
+    }
+
+    /// Appends the rows of one frame, joints in seed-file order.
+    pub fn write_frame(&mut self, frame: u64, names: &[String], est: &[JointEstimate]) -> Result<()> {
+        for (name, e) in names.iter().zip(est) {
+            writeln!(
+                self.out,
+                "{frame},{name},{:.3},{:.3},{:.4},{:.3},{}",
+                e.pos.x,
+                e.pos.y,
+                e.angle_rad,
+                e.score,
+                e.status.as_str()
+            )
+            .map_err(|err| Error::io(&self.tmp, err))?;
+        }
+        Ok(())
+    }
+
+    /// Flushes, syncs and renames the file into place.
+    pub fn finish(self) -> Result<()> {
+        let tmp = self.tmp;
+        let file = self.out.into_inner().map_err(|e| Error::io(&tmp, e.into_error()))?;
+        file.sync_all().map_err(|e| Error::io(&tmp, e))?;
+        std::fs::rename(&tmp, &self.path).map_err(|e| Error::io(&self.path, e))
+    }
+}
+
+/// Reads `tracks.csv`.
+pub fn read_tracks(path: &Path) -> Result<Vec<TrackRow>> {
+    let mut rdr = csv::Reader::from_path(path).map_err(|e| Error::RunFolder {
+        path: path.to_owned(),
+        msg: format!("cannot read tracks: {e}"),
+    })?;
+    rdr.deserialize()
+        .enumerate()
+        .map(|(i, r)| {
+            r.map_err(|e| Error::RunFolder { path: path.to_owned(), msg: format!("line {}: {e}", i + 2) })
+        })
+        .collect()
+}
