@@ -1,0 +1,293 @@
+//! Frames in: a [`FrameSource`] yields a clip's frames one at a time, in display order, as RGB
+//! images (see [`crate::geom`]'s Conventions for colour and time).
+//!
+//! Three sources implement it: a video file decoded by FFmpeg (`ffmpeg.rs`, behind the `ffmpeg`
+//! feature), a folder of numbered PNG/JPEG frames (`images.rs`) and frames held in memory
+//! (`memory.rs`, for tests). [`open`] picks the first two by looking at the path;
+//! [`spawn_reader`] runs any source on its own thread so decoding overlaps with tracking, and
+//! [`sample_frames`] reads a cheap, evenly spread subset of a clip for the background model.
+//!
+//! Frames are streamed: no source holds more than a few frames, whatever the clip's length.
+
+#[cfg(feature = "ffmpeg")]
+mod ffmpeg;
+mod images;
+mod memory;
+
+use crate::error::{Error, Result};
+use image::RgbImage;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{sync_channel, Receiver};
+
+#[cfg(feature = "ffmpeg")]
+pub use self::ffmpeg::FfmpegSource;
+#[cfg(feature = "ffmpeg")]
+pub(crate) use self::ffmpeg::{init as init_ffmpeg, Scaler};
+pub use self::images::{natural_cmp, ImageFolderSource};
+pub use self::memory::MemorySource;
+
+/// Frame rate (frames per second) of an image folder when none is given.
+pub const DEFAULT_IMAGE_FPS: f64 = 30.0;
+
+/// What is known about a clip once it is open.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClipInfo {
+    /// The video file or image folder the frames come from.
+    pub path: PathBuf,
+    /// Frame width in px; every frame a source yields has this size.
+    pub width: u32,
+    /// Frame height in px.
+    pub height: u32,
+    /// Frames per second: the override given to [`open`], else the container's average rate.
+    pub fps: f64,
+    /// Number of frames if the container states it (or, failing that, duration × fps). Only a
+    /// hint for progress bars: the real count is how many frames the source yields.
+    pub frame_count_hint: Option<u64>,
+}
+
+/// A clip's frames, one at a time, in display order.
+pub trait FrameSource: Send {
+    /// The clip's size, rate and path.
+    fn info(&self) -> &ClipInfo;
+    /// Next frame in display order (0-based index implied by call count), or Ok(None) at the end.
+    fn next_frame(&mut self) -> Result<Option<RgbImage>>;
+}
+
+/// Opens a video file (via FFmpeg, feature "ffmpeg") or a directory of numbered PNG/JPEG frames
+/// (natural sort: frame2 < frame10); `fps` (frames per second) overrides the video's rate or sets
+/// the folder's (image folders default to [`DEFAULT_IMAGE_FPS`]).
+///
+/// Errors: [`Error::Clip`] for a missing path, a file FFmpeg cannot decode, a folder without
+/// frames or with frames of different sizes; [`Error::Usage`] for a non-positive `fps`.
+pub fn open(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
+    check_fps(fps)?;
+    let meta = clip_metadata(path)?;
+    if meta.is_dir() {
+        let source = ImageFolderSource::open(path, fps.unwrap_or(DEFAULT_IMAGE_FPS))?;
+        return Ok(Box::new(source));
+    }
+    open_video(path, fps)
+}
+
+#[cfg(feature = "ffmpeg")]
+fn open_video(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
+    Ok(Box::new(FfmpegSource::open(path, fps)?))
+}
+
+#[cfg(not(feature = "ffmpeg"))]
+fn open_video(path: &Path, _fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
+    Err(no_ffmpeg(path))
+}
+
+#[cfg(not(feature = "ffmpeg"))]
+fn no_ffmpeg(path: &Path) -> Error {
+    Error::Clip {
+        path: path.to_owned(),
+        msg: "reading video files needs the `ffmpeg` feature; rebuild with it, or give a \
+              folder of numbered PNG/JPEG frames"
+            .into(),
+    }
+}
+
+/// Up to `n` frames spread evenly across the clip, for the background model (temporal median).
+///
+/// Much cheaper than a full decode on long videos: FFmpeg seeks to `n` evenly spaced timestamps
+/// and takes the first frame decoded after each (distinct timestamps only); if that gives fewer
+/// than `n / 2` frames (short clip, few keyframes) it falls back to one sequential decode that
+/// keeps an evenly thinned subset (never more than `2n` frames in memory). Image folders read
+/// the `n` chosen files directly. Frames come back in clip order.
+pub fn sample_frames(path: &Path, n: usize) -> Result<Vec<RgbImage>> {
+    let meta = clip_metadata(path)?;
+    if meta.is_dir() {
+        return images::sample(path, n);
+    }
+    #[cfg(feature = "ffmpeg")]
+    {
+        ffmpeg::sample(path, n)
+    }
+    #[cfg(not(feature = "ffmpeg"))]
+    {
+        Err(no_ffmpeg(path))
+    }
+}
+
+/// Runs a source on its own named thread ("decode"), sending frames through a bounded channel
+/// (`std::sync::mpsc::sync_channel`) of `capacity` frames, so decode overlaps with tracking.
+///
+/// Items are `(frame index, frame)`, indices counting from 0. A decode error is sent as the last
+/// item; after the last frame the channel closes. Dropping the receiver stops the thread at its
+/// next send.
+pub fn spawn_reader(
+    mut source: Box<dyn FrameSource>,
+    capacity: usize,
+) -> Receiver<Result<(u64, RgbImage)>> {
+    let (tx, rx) = sync_channel(capacity);
+    let path = source.info().path.clone();
+    let fallback = tx.clone();
+    let spawned = std::thread::Builder::new()
+        .name("decode".into())
+        .spawn(move || {
+            let mut index = 0u64;
+            loop {
+                let item = match source.next_frame() {
+                    Ok(Some(frame)) => Ok((index, frame)),
+                    Ok(None) => return,
+                    Err(e) => Err(e),
+                };
+                let failed = item.is_err();
+                if tx.send(item).is_err() || failed {
+                    return;
+                }
+                index += 1;
+            }
+        });
+    if let Err(e) = spawned {
+        // The closure (and its sender) is gone; report through the spare sender. A zero-capacity
+        // channel would block here with nobody receiving yet, so try_send.
+        let _ = fallback.try_send(Err(Error::Decode {
+            path,
+            frame: 0,
+            msg: format!("cannot start the decode thread: {e}"),
+        }));
+    }
+    rx
+}
+
+/// Rejects a frame rate that is not a positive, finite number of frames per second.
+fn check_fps(fps: Option<f64>) -> Result<()> {
+    match fps {
+        Some(f) if !(f.is_finite() && f > 0.0) => Err(Error::Usage(format!(
+            "frame rate must be a positive number of frames per second, got {f}"
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// The clip path's metadata, or [`Error::Clip`] saying it does not exist.
+fn clip_metadata(path: &Path) -> Result<std::fs::Metadata> {
+    std::fs::metadata(path).map_err(|e| {
+        let msg = if e.kind() == std::io::ErrorKind::NotFound {
+            "no such file or folder; give a video file or a folder of numbered PNG/JPEG frames"
+                .to_string()
+        } else {
+            format!("cannot open the clip: {e}")
+        };
+        Error::Clip { path: path.to_owned(), msg }
+    })
+}
+
+/// `count` indices spread evenly over `0..len` (the centre of each of `count` equal slices), or
+/// all of them when `count >= len`. Increasing, without repeats.
+pub(crate) fn spread_indices(len: usize, count: usize) -> Vec<usize> {
+    if count >= len {
+        return (0..len).collect();
+    }
+    (0..count).map(|i| ((2 * i + 1) * len) / (2 * count)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(value: u8) -> RgbImage {
+        RgbImage::from_pixel(4, 3, image::Rgb([value, 0, 0]))
+    }
+
+    #[test]
+    fn spread_indices_centre_slices() {
+        assert_eq!(spread_indices(10, 5), vec![1, 3, 5, 7, 9]);
+        assert_eq!(spread_indices(10, 2), vec![2, 7]);
+        assert_eq!(spread_indices(3, 5), vec![0, 1, 2]);
+        assert_eq!(spread_indices(100, 1), vec![50]);
+        assert!(spread_indices(5, 0).is_empty());
+    }
+
+    #[test]
+    fn reader_yields_all_frames_in_order_then_closes() {
+        let frames: Vec<_> = (0..20).map(frame).collect();
+        let rx = spawn_reader(Box::new(MemorySource::new(frames, 25.0)), 2);
+        let got: Vec<_> = rx.iter().map(|r| r.unwrap()).collect();
+        assert_eq!(got.len(), 20);
+        for (i, (index, img)) in got.iter().enumerate() {
+            assert_eq!(*index, i as u64);
+            assert_eq!(img.get_pixel(0, 0)[0], i as u8);
+        }
+    }
+
+    #[test]
+    fn reader_stops_when_receiver_dropped() {
+        struct Endless(ClipInfo, std::sync::Arc<std::sync::atomic::AtomicU64>);
+        impl FrameSource for Endless {
+            fn info(&self) -> &ClipInfo {
+                &self.0
+            }
+            fn next_frame(&mut self) -> Result<Option<RgbImage>> {
+                self.1.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                Ok(Some(RgbImage::new(2, 2)))
+            }
+        }
+        let count = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let info = ClipInfo {
+            path: "endless".into(),
+            width: 2,
+            height: 2,
+            fps: 30.0,
+            frame_count_hint: None,
+        };
+        let rx = spawn_reader(Box::new(Endless(info, count.clone())), 1);
+        assert_eq!(rx.recv().unwrap().unwrap().0, 0);
+        drop(rx);
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        let after_drop = count.load(std::sync::atomic::Ordering::SeqCst);
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        assert_eq!(count.load(std::sync::atomic::Ordering::SeqCst), after_drop);
+        assert!(after_drop <= 4, "{after_drop} frames decoded after the receiver was dropped");
+    }
+
+    #[test]
+    fn reader_sends_error_last() {
+        struct Failing(ClipInfo, u64);
+        impl FrameSource for Failing {
+            fn info(&self) -> &ClipInfo {
+                &self.0
+            }
+            fn next_frame(&mut self) -> Result<Option<RgbImage>> {
+                self.1 += 1;
+                if self.1 > 3 {
+                    return Err(Error::Decode { path: "x".into(), frame: 3, msg: "bad".into() });
+                }
+                Ok(Some(RgbImage::new(2, 2)))
+            }
+        }
+        let info = ClipInfo {
+            path: "x".into(),
+            width: 2,
+            height: 2,
+            fps: 30.0,
+            frame_count_hint: None,
+        };
+        let items: Vec<_> = spawn_reader(Box::new(Failing(info, 0)), 0).iter().collect();
+        assert_eq!(items.len(), 4);
+        assert!(items[..3].iter().all(|r| r.is_ok()));
+        assert!(matches!(items[3], Err(Error::Decode { frame: 3, .. })));
+    }
+
+    #[test]
+    fn missing_path_is_a_clip_error_naming_it() {
+        let err = open(Path::new("/no/such/clip.mp4"), None).err().unwrap();
+        assert!(matches!(err, Error::Clip { .. }));
+        assert!(err.is_user_error());
+        let msg = err.to_string();
+        assert!(msg.contains("/no/such/clip.mp4") && msg.contains("no such file"), "{msg}");
+        let err = sample_frames(Path::new("/no/such/clip.mp4"), 4).err().unwrap();
+        assert!(matches!(err, Error::Clip { .. }));
+    }
+
+    #[test]
+    fn bad_fps_is_a_usage_error() {
+        let dir = tempfile::tempdir().unwrap();
+        for fps in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(matches!(open(dir.path(), Some(fps)), Err(Error::Usage(_))));
+        }
+    }
+}
