@@ -182,3 +182,28 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         status_counts: counts.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
     })
 }
+
+/// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines
+/// (all joints first, then one line per joint when asked). Frames from the seed frame on.
+pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
+    let rows = crate::run::tracks::read_tracks(&run_dir.join("tracks.csv"))?;
+    let first = rows.first().map_or(0, |r| r.frame);
+    let gt = crate::eval::read_gt(gt)?;
+    let errs = crate::eval::errors(rows.iter().map(|r| (r.frame, r.joint.as_str(), r.x, r.y)), &gt, first);
+    let all: Vec<f32> = errs.iter().map(|e| e.2).collect();
+    let mut lines = vec![format!("all joints: {}", crate::eval::summarise(&all))];
+    if per_joint {
+        let mut names: Vec<&str> = Vec::new();
+        for r in &rows {
+            if r.frame != first {
+                break;
+            }
+            names.push(&r.joint);
+        }
+        for n in names {
+            let e: Vec<f32> = errs.iter().filter(|e| e.1 == n).map(|e| e.2).collect();
+            lines.push(format!("{n}: {}", crate::eval::summarise(&e)));
+        }
+    }
+    Ok(lines)
+}

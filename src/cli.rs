@@ -18,6 +18,10 @@ pub struct Cli {
 pub enum Command {
     /// Track the joints of a seed file through a clip (video file or folder of numbered frames).
     Track(TrackArgs),
+    /// Render a synthetic test clip with ground truth (clip.mp4, gt.csv, joints.toml, background.png).
+    Synth(SynthArgs),
+    /// Compare a run's tracks with ground truth (frame,joint,x,y): median, p95, PCK@5/@10.
+    Eval(EvalArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -42,6 +46,36 @@ pub struct TrackArgs {
     /// Tracking parameters (TOML, keys as in run.toml's [params]); unset keys keep their defaults.
     #[arg(long, value_name = "TOML")]
     pub params: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct EvalArgs {
+    /// Run folder written by `mocap2d track`.
+    pub run: PathBuf,
+    /// Ground truth CSV with header frame,joint,x,y (px).
+    #[arg(long)]
+    pub gt: PathBuf,
+    /// Also print one line per joint.
+    #[arg(long)]
+    pub per_joint: bool,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct SynthArgs {
+    /// Scenario: walk, occlude, fast, squash, noisy, long.
+    pub scenario: crate::synth::Scenario,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Frame size in px, WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x360", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Random seed of the motion and textures.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Number of frames [default: the scenario's].
+    #[arg(long)]
+    pub frames: Option<u32>,
 }
 
 /// Parses `WIDTHxHEIGHT` (px).

@@ -13,6 +13,7 @@ pub mod decode;
 #[cfg(feature = "ffmpeg")]
 pub mod encode;
 pub mod error;
+pub mod eval;
 pub mod geom;
 pub mod progress;
 pub mod run;

@@ -67,6 +67,23 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 counts.join(", ")
             );
         }
+        Command::Synth(a) => {
+            let opts = mocap2d::synth::SynthOptions {
+                scenario: a.scenario,
+                width: a.size.0,
+                height: a.size.1,
+                seed: a.seed,
+                frames: a.frames,
+            };
+            let clip = mocap2d::synth::render(&opts);
+            mocap2d::synth::write_clip(&clip, &a.out)?;
+            eprintln!("wrote {} frames of {} to {}", clip.frames.len(), a.scenario, a.out.display());
+        }
+        Command::Eval(a) => {
+            for line in app::eval(&a.run, &a.gt, a.per_joint)? {
+                println!("{line}");
+            }
+        }
     }
     Ok(())
 }

@@ -80,6 +80,27 @@ impl Kalman {
         self.cov = (self.cov + self.cov.transpose()) * 0.5;
     }
 
+    /// Restarts the filter at `p` moving at `v` (px/frame) with no acceleration, with positional
+    /// and speed standard deviations `pos_sigma` (px) and `speed_sigma` (px/frame). Used when a
+    /// hidden joint is placed from the skeleton rather than measured.
+    pub fn reset(&mut self, p: Point, v: crate::geom::Vector, pos_sigma: f32, speed_sigma: f32) {
+        self.sx = Vector3::new(p.x, v.x, 0.0);
+        self.sy = Vector3::new(p.y, v.y, 0.0);
+        let a = speed_sigma / 2.0;
+        self.cov = Matrix3::from_diagonal(&Vector3::new(pos_sigma * pos_sigma, speed_sigma * speed_sigma, a * a));
+    }
+
+    /// Keeps the position inside `[lo, hi]` per axis (px), stopping motion along a clamped axis.
+    pub fn clamp_to(&mut self, lo: Point, hi: Point) {
+        for (s, l, h) in [(&mut self.sx, lo.x, hi.x), (&mut self.sy, lo.y, hi.y)] {
+            if s[0] < l || s[0] > h {
+                s[0] = s[0].clamp(l, h);
+                s[1] = 0.0;
+                s[2] = 0.0;
+            }
+        }
+    }
+
     /// Damps velocity and acceleration (used while a joint is hidden so the prediction does not
     /// fly off along a stale velocity).
     pub fn damp(&mut self, velocity_keep: f32, accel_keep: f32) {

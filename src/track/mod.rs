@@ -42,10 +42,17 @@ pub struct TrackParams {
     pub jerk_sigma: f32,
     /// Prior speed uncertainty at the seed frame (px/frame).
     pub speed_sigma: f32,
-    /// A match whose colour cost exceeds this many times the joint's typical cost is occlusion.
+    /// A match whose colour cost exceeds this share of the joint's distinctiveness (the cost of
+    /// its template a few pixels off the seed position) is taken as occlusion.
     pub occlusion_ratio: f32,
-    /// Colour cost floor (normalised) under which any match is as good as the typical one.
+    /// Smallest distinctiveness (normalised colour cost) a joint is given.
     pub cost_floor: f32,
+    /// A match that makes its bone longer or shorter than its recent length by more than this
+    /// share is rejected as a mismatch (the joint is then treated as hidden).
+    pub bone_tolerance: f32,
+    /// Whether a root joint's rectangle turns with the bone to its first child (otherwise it
+    /// keeps its seed orientation; a root's child is often the least reliable reference).
+    pub rotate_roots: bool,
     /// Frames in a row hidden before the status turns from `occluded` to `lost`.
     pub lost_after_frames: u32,
 }
@@ -53,17 +60,19 @@ pub struct TrackParams {
 impl Default for TrackParams {
     fn default() -> Self {
         TrackParams {
-            search_min_px: 4.0,
+            search_min_px: 8.0,
             search_max_px: 48.0,
             search_sigmas: 3.0,
             geo_weight: 0.02,
             anchor_weight: 0.5,
             update_rate: 0.15,
             meas_sigma_px: 0.7,
-            jerk_sigma: 1.5,
+            jerk_sigma: 4.0,
             speed_sigma: 10.0,
-            occlusion_ratio: 4.0,
-            cost_floor: 0.003,
+            occlusion_ratio: 0.8,
+            cost_floor: 0.004,
+            bone_tolerance: 0.3,
+            rotate_roots: false,
             lost_after_frames: 30,
         }
     }
@@ -122,15 +131,52 @@ struct JointState {
     reference: Option<(usize, bool)>,
     /// Direction (radians) of the reference bone on the seed frame, minus the seed angle.
     seed_dir: f32,
-    /// Running typical colour cost on confident frames.
-    typical_cost: Option<f32>,
+    /// Distinctiveness: mean colour cost of the seed template 3 px off the seed position on
+    /// the seed frame. Match costs are judged against it.
+    distinct_cost: f32,
     hidden_run: u32,
     last: JointEstimate,
+    /// Recent length (px) of the bone from the parent (EMA over frames where both are seen).
+    bone_len: f32,
+    /// Direction (radians, unwrapped) of the bone from the parent on the last frame.
+    bone_dir: f32,
+    /// Recent turn rate of that bone (radians/frame), extrapolated while the joint is hidden.
+    bone_turn: f32,
+}
+
+/// Mean normalised colour cost of the seed template placed 3 px off the seed centre in 8
+/// directions on the seed frame, at least `floor`: how different a near miss looks.
+fn distinctiveness(seed_frame: &RgbImage, anchor: &Patch, b: JointBox, floor: f32) -> f32 {
+    let t = Template::from_patch(anchor, b.angle_rad, b.w as usize, b.h as usize);
+    let (fw, fh) = (seed_frame.width() as i64, seed_frame.height() as i64);
+    let norm = (t.active.max(1) as f64) * 255.0 * 255.0;
+    let x0 = (b.cx - (b.w as f32 - 1.0) / 2.0).round() as i64;
+    let y0 = (b.cy - (b.h as f32 - 1.0) / 2.0).round() as i64;
+    let mut sum = 0.0;
+    let mut n = 0;
+    for (dx, dy) in [(-3, 0), (3, 0), (0, -3), (0, 3), (-2, -2), (2, 2), (-2, 2), (2, -2)] {
+        let (x, y) = (x0 + dx, y0 + dy);
+        if x >= 0 && y >= 0 && x + b.w as i64 <= fw && y + b.h as i64 <= fh {
+            sum += search::ssd(seed_frame, &t, x as usize, y as usize, u64::MAX) as f64 / norm;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return floor;
+    }
+    ((sum / n as f64) as f32).max(floor)
 }
 
 /// Tracks all joints of a seed file frame by frame.
 pub struct Tracker {
     params: TrackParams,
+    parents: Vec<Option<usize>>,
+    /// Joints with parents before children.
+    order: Vec<usize>,
+    children: Vec<Vec<usize>>,
+    /// Scratch: each joint's position on the previous frame and its distinctiveness.
+    last_pos: Vec<Point>,
+    distinct: Vec<f32>,
     joints: Vec<JointState>,
     background: Option<Background>,
 }
@@ -150,7 +196,8 @@ impl Tracker {
                 // first child; a lone joint does not rotate.
                 let reference = match sk.parents[i] {
                     Some(p) => Some((p, true)),
-                    None => sk.children(i).first().map(|&c| (c, false)),
+                    None if params.rotate_roots => sk.children(i).first().map(|&c| (c, false)),
+                    None => None,
                 };
                 let dir = |r: Option<(usize, bool)>| match r {
                     Some((p, true)) => direction(centres[p], centres[i]),
@@ -159,6 +206,7 @@ impl Tracker {
                 };
                 let side = patch_side(b.w, b.h);
                 let anchor = Patch::extract(seed_frame, background.as_ref(), b.centre(), b.angle_rad, side, side);
+                let distinct_cost = distinctiveness(seed_frame, &anchor, b, params.cost_floor);
                 JointState {
                     kalman: Kalman::new(b.centre(), params.speed_sigma, params.speed_sigma / 2.0, params.jerk_sigma),
                     w: b.w,
@@ -167,13 +215,25 @@ impl Tracker {
                     anchor,
                     reference,
                     seed_dir: dir(reference) - b.angle_rad,
-                    typical_cost: None,
+                    distinct_cost,
                     hidden_run: 0,
+                    bone_len: sk.parents[i].map_or(0.0, |p| (centres[i] - centres[p]).norm()),
+                    bone_dir: sk.parents[i].map_or(0.0, |p| direction(centres[p], centres[i])),
+                    bone_turn: 0.0,
                     last: JointEstimate { pos: b.centre(), angle_rad: b.angle_rad, score: 1.0, status: Status::Seed },
                 }
             })
             .collect();
-        Tracker { params, joints, background }
+        Tracker {
+            params,
+            parents: sk.parents.clone(),
+            order: sk.topo_order(),
+            children: (0..sk.len()).map(|i| sk.children(i)).collect(),
+            last_pos: Vec::new(),
+            distinct: Vec::new(),
+            joints,
+            background,
+        }
     }
 
     /// The estimates of the last processed frame (the seed frame right after `new`).
@@ -214,31 +274,86 @@ impl Tracker {
                 search::search(frame, &t, pred, radius, p.geo_weight)
             })
             .collect();
-        // 3. Decide seen or hidden, update the filters.
-        let mut pts = Vec::with_capacity(self.joints.len());
-        let mut out = Vec::with_capacity(self.joints.len());
-        for (i, (j, m)) in self.joints.iter_mut().zip(&matches).enumerate() {
-            let typical = j.typical_cost.unwrap_or(m.colour_cost).max(p.cost_floor);
-            let ratio = m.colour_cost / typical;
-            let score = (1.0 - (ratio - 1.0).max(0.0) / (p.occlusion_ratio - 1.0)).clamp(0.0, 1.0);
-            let status;
-            if ratio > p.occlusion_ratio {
-                j.hidden_run += 1;
-                status = if j.hidden_run > p.lost_after_frames { Status::Lost } else { Status::Occluded };
-                j.kalman.damp(0.9, 0.5);
-            } else {
-                j.hidden_run = 0;
-                let var = p.meas_sigma_px * p.meas_sigma_px * ratio.max(1.0);
-                j.kalman.update(m.pos, var);
-                status = if score >= 0.5 { Status::Ok } else { Status::Low };
-                if status == Status::Ok {
-                    let c = j.typical_cost.map_or(m.colour_cost, |t| 0.9 * t + 0.1 * m.colour_cost);
-                    j.typical_cost = Some(c);
+        // 3. Decide seen or hidden, parents before children, and update the filters. A match
+        //    counts when its colour cost is well under the joint's distinctiveness and it keeps
+        //    the bone from its parent near its recent length; otherwise the joint is hidden and
+        //    rides on its parent at the bone's recent length and extrapolated direction.
+        let n = self.joints.len();
+        self.last_pos = self.joints.iter().map(|j| j.last.pos).collect();
+        self.distinct = self.joints.iter().map(|j| j.distinct_cost).collect();
+        let (fw, fh) = (frame.width() as f32, frame.height() as f32);
+        let mut pts = vec![Point::origin(); n];
+        let mut decided = vec![(0.0f32, Status::Ok); n];
+        for &i in &self.order {
+            let parent = self.parents[i];
+            let m = &matches[i];
+            let j = &mut self.joints[i];
+            let ratio = m.colour_cost / j.distinct_cost;
+            let score = (1.0 - ratio).clamp(0.0, 1.0);
+            let mut seen = ratio <= p.occlusion_ratio;
+            // The bone check needs a parent that was clearly seen: a child must not be
+            // rejected because its parent went wrong.
+            if let (true, Some(par)) = (seen, parent.filter(|&q| decided[q].1 == Status::Ok)) {
+                let len = (m.pos - pts[par]).norm();
+                if (len - j.bone_len).abs() > (p.bone_tolerance * j.bone_len).max(3.0) {
+                    seen = false;
                 }
             }
-            pts.push(j.kalman.position());
-            out.push((i, score, status));
+            let status;
+            if seen {
+                j.hidden_run = 0;
+                // A poorer match is a noisier measurement (eq. 4.4's R grows with the cost).
+                let var = p.meas_sigma_px * p.meas_sigma_px * (1.0 + 8.0 * ratio * ratio);
+                j.kalman.update(m.pos, var);
+                status = if score >= 0.5 { Status::Ok } else { Status::Low };
+            } else {
+                j.hidden_run += 1;
+                status = if j.hidden_run > p.lost_after_frames { Status::Lost } else { Status::Occluded };
+                match parent {
+                    Some(par) => {
+                        j.bone_turn *= 0.8;
+                        let dir = j.bone_dir + j.bone_turn;
+                        let at = pts[par] + crate::geom::Vector::new(dir.cos(), dir.sin()) * j.bone_len;
+                        let v = at - j.last.pos;
+                        j.kalman.reset(at, v * 0.5, 1.0, p.speed_sigma);
+                    }
+                    None => {
+                        // A hidden root follows its clearly seen children, keeping last
+                        // frame's offsets to them; with none, it coasts on a damped filter.
+                        let mut sum = crate::geom::Vector::zeros();
+                        let mut k = 0.0;
+                        for &c in &self.children[i] {
+                            if matches[c].colour_cost <= 0.5 * p.occlusion_ratio * self.distinct[c] {
+                                sum += matches[c].pos.coords - (self.last_pos[c] - j.last.pos);
+                                k += 1.0;
+                            }
+                        }
+                        if k > 0.0 {
+                            let at = Point::from(sum / k);
+                            let v = at - j.last.pos;
+                            j.kalman.reset(at, v, 1.0, p.speed_sigma);
+                        } else {
+                            j.kalman.damp(0.8, 0.0);
+                        }
+                    }
+                }
+            }
+            j.kalman.clamp_to(Point::new(0.0, 0.0), Point::new(fw - 1.0, fh - 1.0));
+            pts[i] = j.kalman.position();
+            if let Some(par) = parent {
+                let v = pts[i] - pts[par];
+                let dir = unwrap_angle(j.bone_dir, v.y.atan2(v.x));
+                if seen {
+                    j.bone_turn = 0.5 * j.bone_turn + 0.5 * (dir - j.bone_dir);
+                    if decided[par].1 != Status::Occluded && decided[par].1 != Status::Lost {
+                        j.bone_len += 0.1 * (v.norm() - j.bone_len);
+                    }
+                }
+                j.bone_dir = dir;
+            }
+            decided[i] = (score, status);
         }
+        let out: Vec<(usize, f32, Status)> = decided.iter().enumerate().map(|(i, &(s, st))| (i, s, st)).collect();
         // 4. Rotations from the new centres; running appearance on confident frames.
         let mut result = Vec::with_capacity(out.len());
         for (i, score, status) in out {
