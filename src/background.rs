@@ -73,6 +73,32 @@ impl Background {
         Ok(Background { plate: img, threshold: MIN_THRESHOLD })
     }
 
+    /// Global brightness gain of `frame` relative to the plate (1 = same exposure): the median,
+    /// over a sparse grid of pixels, of the frame's channel sum over the plate's. Foreground
+    /// pixels are a minority, so the median reflects the background (flicker, exposure drift).
+    pub fn gain(&self, frame: &RgbImage) -> f32 {
+        let (w, h) = frame.dimensions();
+        if (w, h) != self.plate.dimensions() {
+            return 1.0;
+        }
+        let step = (((w as u64 * h as u64) / 4000) as f64).sqrt().max(1.0) as u32;
+        let mut ratios = Vec::with_capacity(4200);
+        for y in (step / 2..h).step_by(step as usize) {
+            for x in (step / 2..w).step_by(step as usize) {
+                let p: u32 = self.plate.get_pixel(x, y).0.iter().map(|&v| v as u32).sum();
+                if p >= 60 {
+                    let f: u32 = frame.get_pixel(x, y).0.iter().map(|&v| v as u32).sum();
+                    ratios.push(f as f32 / p as f32);
+                }
+            }
+        }
+        if ratios.is_empty() {
+            return 1.0;
+        }
+        let mid = ratios.len() / 2;
+        *ratios.select_nth_unstable_by(mid, f32::total_cmp).1
+    }
+
     /// L1 colour distance between `frame` and the plate at pixel `(x, y)`.
     #[inline]
     pub fn distance(&self, frame: &RgbImage, x: u32, y: u32) -> u32 {
@@ -115,5 +141,8 @@ mod tests {
         assert_eq!(bg.threshold, MIN_THRESHOLD);
         assert!(bg.is_foreground(&frames[0], 1, 3));
         assert!(!bg.is_foreground(&frames[0], 10, 3));
+        // A frame 10 % brighter everywhere has gain 1.1.
+        let bright = RgbImage::from_pixel(20, 10, Rgb([110, 121, 132]));
+        assert!((bg.gain(&bright) - 1.1).abs() < 0.01, "{}", bg.gain(&bright));
     }
 }

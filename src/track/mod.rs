@@ -38,6 +38,9 @@ pub struct TrackParams {
     pub update_rate: f32,
     /// Measurement standard deviation of a clean match (px).
     pub meas_sigma_px: f32,
+    /// How much noisier a poor match is than a clean one: the measurement variance is
+    /// `meas_sigma_px² · (1 + low_score_noise · ratio²)`, ratio = cost / distinctiveness.
+    pub low_score_noise: f32,
     /// Random jerk of the motion model (px/frame³).
     pub jerk_sigma: f32,
     /// Prior speed uncertainty at the seed frame (px/frame).
@@ -68,6 +71,7 @@ impl Default for TrackParams {
             update_rate: 0.15,
             meas_sigma_px: 0.7,
             jerk_sigma: 4.0,
+            low_score_noise: 8.0,
             speed_sigma: 10.0,
             occlusion_ratio: 0.8,
             cost_floor: 0.004,
@@ -177,6 +181,8 @@ pub struct Tracker {
     /// Scratch: each joint's position on the previous frame and its distinctiveness.
     last_pos: Vec<Point>,
     distinct: Vec<f32>,
+    /// Brightness gain of the seed frame over the clean plate.
+    seed_gain: f32,
     joints: Vec<JointState>,
     background: Option<Background>,
 }
@@ -230,6 +236,7 @@ impl Tracker {
             order: sk.topo_order(),
             children: (0..sk.len()).map(|i| sk.children(i)).collect(),
             last_pos: Vec::new(),
+            seed_gain: background.as_ref().map_or(1.0, |b| b.gain(seed_frame)).max(1e-3),
             distinct: Vec::new(),
             joints,
             background,
@@ -260,6 +267,8 @@ impl Tracker {
         let preds: Vec<Point> = self.joints.iter_mut().map(|j| j.kalman.predict()).collect();
         let pred_angles: Vec<f32> =
             (0..self.joints.len()).map(|i| self.angle_of(i, &preds, self.joints[i].last.angle_rad)).collect();
+        // Flicker / exposure drift: scale templates by this frame's gain over the seed frame's.
+        let gain = self.background.as_ref().map_or(1.0, |b| b.gain(frame) / self.seed_gain);
         // 2. Match every joint independently (eq. 4.5–4.6).
         let matches: Vec<search::Match> = self
             .joints
@@ -268,7 +277,7 @@ impl Tracker {
             .map(|(j, (&pred, &ang))| {
                 let mut appearance = j.running.clone();
                 appearance.blend(&j.anchor, p.anchor_weight);
-                let t = Template::from_patch(&appearance, ang, j.w as usize, j.h as usize);
+                let t = Template::from_patch_gain(&appearance, ang, j.w as usize, j.h as usize, gain);
                 let sigma = (j.kalman.cov[(0, 0)] + p.meas_sigma_px * p.meas_sigma_px).sqrt();
                 let radius = (p.search_sigmas * sigma).clamp(p.search_min_px, p.search_max_px);
                 search::search(frame, &t, pred, radius, p.geo_weight)
@@ -303,7 +312,7 @@ impl Tracker {
             if seen {
                 j.hidden_run = 0;
                 // A poorer match is a noisier measurement (eq. 4.4's R grows with the cost).
-                let var = p.meas_sigma_px * p.meas_sigma_px * (1.0 + 8.0 * ratio * ratio);
+                let var = p.meas_sigma_px * p.meas_sigma_px * (1.0 + p.low_score_noise * ratio * ratio);
                 j.kalman.update(m.pos, var);
                 status = if score >= 0.5 { Status::Ok } else { Status::Low };
             } else {
@@ -367,7 +376,8 @@ impl Tracker {
             j.last = *est;
             if est.status == Status::Ok && est.score > 0.6 {
                 let side = j.anchor.w;
-                let fresh = Patch::extract(frame, bg, est.pos, est.angle_rad, side, side);
+                let mut fresh = Patch::extract(frame, bg, est.pos, est.angle_rad, side, side);
+                fresh.rgb.iter_mut().for_each(|v| *v /= gain);
                 j.running.blend(&fresh, rate);
             }
         });

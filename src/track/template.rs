@@ -149,6 +149,12 @@ impl Template {
     /// Pixels whose mask is off (background at seed time) do not count; if fewer than a quarter
     /// of the pixels count, all count (a joint seen against a plate-less or similar background).
     pub fn from_patch(patch: &Patch, angle_rad: f32, w: usize, h: usize) -> Template {
+        Template::from_patch_gain(patch, angle_rad, w, h, 1.0)
+    }
+
+    /// As [`Template::from_patch`], with colours scaled by `gain` (the frame's brightness
+    /// relative to the patch's, see [`crate::background::Background::gain`]).
+    pub fn from_patch_gain(patch: &Patch, angle_rad: f32, w: usize, h: usize, gain: f32) -> Template {
         let (s, c) = angle_rad.sin_cos();
         let mut rgb = vec![0i16; w * h * 3];
         let mut mask = vec![0i16; w * h * 3];
@@ -162,7 +168,7 @@ impl Template {
                 let k = (j * w + i) * 3;
                 if let Some((col, m)) = patch.sample_local(ox, oy) {
                     for ch in 0..3 {
-                        rgb[k + ch] = col[ch].round() as i16;
+                        rgb[k + ch] = (col[ch] * gain).round().min(255.0) as i16;
                     }
                     if m > MASK_ON {
                         mask[k..k + 3].fill(-1);
