@@ -8,11 +8,11 @@
 use crate::atomic;
 use crate::decode::{init_ffmpeg, Scaler};
 use crate::error::{Error, Result};
-use ffmpeg_next as ff;
 use ff::codec::threading;
 use ff::format::Pixel;
 use ff::software::scaling;
 use ff::{Dictionary, Rational};
+use ffmpeg_next as ff;
 use image::RgbImage;
 use std::path::{Path, PathBuf};
 
@@ -36,7 +36,10 @@ pub struct WriterOptions {
 
 impl Default for WriterOptions {
     fn default() -> Self {
-        WriterOptions { crf: 18, keyframe_interval: None }
+        WriterOptions {
+            crf: 18,
+            keyframe_interval: None,
+        }
     }
 }
 
@@ -82,7 +85,10 @@ impl VideoWriter {
     /// [`Error::Encode`] for an unknown extension, an empty size, a bad rate or an encoder that
     /// refuses the settings.
     pub fn create(path: &Path, width: u32, height: u32, fps: f64, crf: u8) -> Result<Self> {
-        let options = WriterOptions { crf, ..WriterOptions::default() };
+        let options = WriterOptions {
+            crf,
+            ..WriterOptions::default()
+        };
         Self::create_with(path, width, height, fps, options)
     }
 
@@ -95,7 +101,10 @@ impl VideoWriter {
         options: WriterOptions,
     ) -> Result<Self> {
         init_ffmpeg();
-        let err = |msg: String| Error::Encode { path: path.to_owned(), msg };
+        let err = |msg: String| Error::Encode {
+            path: path.to_owned(),
+            msg,
+        };
         if options.crf > 51 {
             return Err(Error::Usage(format!(
                 "video quality (crf) must be 0–51 (lower is better), got {}",
@@ -115,7 +124,13 @@ impl VideoWriter {
         // Creating it here first turns a missing folder or a permission problem into a plain
         // I/O error naming the file; FFmpeg then reopens (truncates) it.
         std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
-        let mut writer = VideoWriter { path: path.to_owned(), tmp, width, height, inner: None };
+        let mut writer = VideoWriter {
+            path: path.to_owned(),
+            tmp,
+            width,
+            height,
+            inner: None,
+        };
         let inner = Inner::new(&writer.tmp, muxer, width, height, fps, options).map_err(err)?;
         writer.inner = Some(inner);
         Ok(writer)
@@ -137,7 +152,10 @@ impl VideoWriter {
                 self.height
             )));
         }
-        let inner = self.inner.as_mut().expect("only finish() takes the encoder");
+        let inner = self
+            .inner
+            .as_mut()
+            .expect("only finish() takes the encoder");
         let result = inner.write(frame);
         result.map_err(|msg| self.error(msg))
     }
@@ -163,7 +181,10 @@ impl VideoWriter {
     }
 
     fn error(&self, msg: String) -> Error {
-        Error::Encode { path: self.path.clone(), msg }
+        Error::Encode {
+            path: self.path.clone(),
+            msg,
+        }
     }
 }
 
@@ -201,7 +222,10 @@ impl Inner {
         };
         let rate = frame_rate(fps);
         let time_base = rate.invert();
-        let global_header = output.format().flags().contains(ff::format::Flags::GLOBAL_HEADER);
+        let global_header = output
+            .format()
+            .flags()
+            .contains(ff::format::Flags::GLOBAL_HEADER);
 
         let mut encoder = ff::codec::context::Context::new_with_codec(codec)
             .encoder()
@@ -231,6 +255,9 @@ impl Inner {
             });
             codec_options.set("preset", X264_PRESET);
             codec_options.set("crf", &options.crf.to_string());
+            if let Some(params) = x264_params() {
+                codec_options.set("x264-params", params);
+            }
         } else {
             encoder.set_threading(threading::Config {
                 kind: threading::Type::Slice,
@@ -311,27 +338,46 @@ impl Inner {
                         .write_interleaved(&mut self.output)
                         .map_err(|e| format!("cannot write a packet ({e})"))?;
                 }
-                Err(ff::Error::Other { errno: ff::error::EAGAIN }) | Err(ff::Error::Eof) => {
-                    return Ok(())
-                }
+                Err(ff::Error::Other {
+                    errno: ff::error::EAGAIN,
+                })
+                | Err(ff::Error::Eof) => return Ok(()),
                 Err(e) => return Err(format!("the encoder failed ({e})")),
             }
         }
     }
 
     fn finish(&mut self) -> std::result::Result<(), String> {
-        self.encoder.send_eof().map_err(|e| format!("cannot flush the encoder ({e})"))?;
+        self.encoder
+            .send_eof()
+            .map_err(|e| format!("cannot flush the encoder ({e})"))?;
         self.drain()?;
-        self.output.write_trailer().map_err(|e| format!("cannot complete the file ({e})"))
+        self.output
+            .write_trailer()
+            .map_err(|e| format!("cannot complete the file ({e})"))
     }
 }
 
+/// Extra libx264 settings for reproducible output. x264's AVX-512 code (seen with x264 0.164 and
+/// FFmpeg 5.1) reads memory it never wrote: the same frames encoded twice in one process gave
+/// different files about half the time. x264's SIMD levels are otherwise bit-exact with each
+/// other, so on CPUs with AVX-512 it is capped at AVX2 (`asm=AVX2` is auto-detection less
+/// AVX-512), which costs little speed and gives the same bytes as any other x86 machine.
+fn x264_params() -> Option<&'static str> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx512f") {
+        return Some("asm=AVX2");
+    }
+    None
+}
+
 /// A yuv420p frame of `width × height` px whose buffer is zeroed and larger than needed: 64 more
-/// bytes than the 64-aligned width on every row and 16 more rows. libx264's SIMD input copy reads
-/// past the planes' ends; with FFmpeg's tight buffers it read leftover heap bytes, and identical
-/// frames gave different files (seen with AVX-512). Zeroed slack makes the output reproducible.
+/// bytes than the 64-aligned width on every row and 16 more rows. SIMD code may read past a
+/// plane's end; FFmpeg's tight buffers hold leftover heap bytes there, zeroed slack does not (with
+/// x264's AVX-512 code, tight buffers made differing files more often than padded ones).
 fn padded_yuv_frame(width: u32, height: u32) -> ff::frame::Video {
-    let mut frame = ff::frame::Video::new(Pixel::YUV420P, width.next_multiple_of(64) + 64, height + 16);
+    let mut frame =
+        ff::frame::Video::new(Pixel::YUV420P, width.next_multiple_of(64) + 64, height + 16);
     for plane in 0..3 {
         frame.data_mut(plane).fill(0);
     }
@@ -387,7 +433,9 @@ fn frame_rate(fps: f64) -> Rational {
 /// MPEG-4 quantiser (1–31) of roughly the quality x264 gives at `crf`: 3 at crf 18, doubling
 /// every 6.
 fn mpeg4_quantiser(crf: u8) -> i32 {
-    (3.0 * 2f64.powf((f64::from(crf) - 18.0) / 6.0)).round().clamp(1.0, 31.0) as i32
+    (3.0 * 2f64.powf((f64::from(crf) - 18.0) / 6.0))
+        .round()
+        .clamp(1.0, 31.0) as i32
 }
 
 /// `n` rounded up to an even number.
@@ -414,7 +462,12 @@ mod tests {
 
     fn mean_abs_diff(a: &RgbImage, b: &RgbImage) -> f64 {
         assert_eq!(a.dimensions(), b.dimensions());
-        let sum: u64 = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y) as u64).sum();
+        let sum: u64 = a
+            .as_raw()
+            .iter()
+            .zip(b.as_raw())
+            .map(|(x, y)| x.abs_diff(*y) as u64)
+            .sum();
         sum as f64 / a.as_raw().len() as f64
     }
 
@@ -470,7 +523,12 @@ mod tests {
             })
             .collect();
         for (k, bytes) in files.iter().enumerate() {
-            assert!(bytes == &files[0], "encode {k}: {} bytes, encode 0: {}", bytes.len(), files[0].len());
+            assert!(
+                bytes == &files[0],
+                "encode {k}: {} bytes, encode 0: {}",
+                bytes.len(),
+                files[0].len()
+            );
         }
     }
 
@@ -494,7 +552,10 @@ mod tests {
         // The padding column and row repeat the edge.
         for y in 0..25 {
             let (edge, pad) = (back[3].get_pixel(32, y), back[3].get_pixel(33, y));
-            assert!(edge.0.iter().zip(pad.0).all(|(a, b)| a.abs_diff(b) < 24), "row {y}");
+            assert!(
+                edge.0.iter().zip(pad.0).all(|(a, b)| a.abs_diff(b) < 24),
+                "row {y}"
+            );
         }
     }
 
@@ -504,11 +565,17 @@ mod tests {
         let path = dir.path().join("x.mp4");
         let mut writer = VideoWriter::create(&path, 16, 16, 30.0, 18).unwrap();
         let err = writer.write(&RgbImage::new(8, 8)).unwrap_err();
-        assert!(matches!(err, Error::Encode { .. }) && err.to_string().contains("8x8"), "{err}");
+        assert!(
+            matches!(err, Error::Encode { .. }) && err.to_string().contains("8x8"),
+            "{err}"
+        );
         drop(writer);
         assert!(!path.exists() && !atomic::temp_path(&path).exists());
 
-        let empty = VideoWriter::create(&path, 16, 16, 30.0, 18).unwrap().finish().unwrap_err();
+        let empty = VideoWriter::create(&path, 16, 16, 30.0, 18)
+            .unwrap()
+            .finish()
+            .unwrap_err();
         assert!(empty.to_string().contains("no frames"), "{empty}");
         assert!(!path.exists() && !atomic::temp_path(&path).exists());
 

@@ -2,11 +2,11 @@
 
 use super::{spread_indices, ClipInfo, FrameSource, DEFAULT_IMAGE_FPS};
 use crate::error::{Error, Result};
-use ffmpeg_next as ff;
 use ff::codec::threading;
 use ff::format::Pixel;
 use ff::software::scaling;
 use ff::{Rational, Rescale};
+use ffmpeg_next as ff;
 use image::RgbImage;
 use std::collections::HashSet;
 use std::path::Path;
@@ -52,7 +52,9 @@ unsafe impl Send for Scaler {}
 
 impl std::fmt::Debug for FfmpegSource {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("FfmpegSource").field("info", &self.info).finish_non_exhaustive()
+        f.debug_struct("FfmpegSource")
+            .field("info", &self.info)
+            .finish_non_exhaustive()
     }
 }
 
@@ -64,7 +66,10 @@ impl FfmpegSource {
     /// has no decoder for its codec.
     pub fn open(path: &Path, fps: Option<f64>) -> Result<Self> {
         init();
-        let clip_err = |msg: String| Error::Clip { path: path.to_owned(), msg };
+        let clip_err = |msg: String| Error::Clip {
+            path: path.to_owned(),
+            msg,
+        };
         if !path.exists() {
             return Err(clip_err("no such file or folder".into()));
         }
@@ -88,7 +93,9 @@ impl FfmpegSource {
         decoder.set_packet_time_base(time_base);
         let codec_id = decoder.id();
         let decoder = decoder.video().map_err(|e| {
-            clip_err(format!("FFmpeg cannot decode its video codec {codec_id:?} ({e})"))
+            clip_err(format!(
+                "FFmpeg cannot decode its video codec {codec_id:?} ({e})"
+            ))
         })?;
         let (width, height) = (decoder.width(), decoder.height());
         if width == 0 || height == 0 {
@@ -102,7 +109,13 @@ impl FfmpegSource {
                 .map(|s| (s * fps).round() as u64)
                 .filter(|&n| n > 0)
         };
-        let info = ClipInfo { path: path.to_owned(), width, height, fps, frame_count_hint };
+        let info = ClipInfo {
+            path: path.to_owned(),
+            width,
+            height,
+            fps,
+            frame_count_hint,
+        };
         Ok(FfmpegSource {
             info,
             input,
@@ -117,7 +130,11 @@ impl FfmpegSource {
     }
 
     fn decode_error(&self, msg: String) -> Error {
-        Error::Decode { path: self.info.path.clone(), frame: self.frames_out, msg }
+        Error::Decode {
+            path: self.info.path.clone(),
+            frame: self.frames_out,
+            msg,
+        }
     }
 
     /// Decodes the next frame into `self.decoded`; false at the end of the stream. Sends EOF to
@@ -127,7 +144,9 @@ impl FfmpegSource {
             match self.decoder.receive_frame(&mut self.decoded) {
                 Ok(()) => return Ok(true),
                 Err(ff::Error::Eof) => return Ok(false),
-                Err(ff::Error::Other { errno: ff::error::EAGAIN }) => {}
+                Err(ff::Error::Other {
+                    errno: ff::error::EAGAIN,
+                }) => {}
                 Err(e) => return Err(self.decode_error(format!("FFmpeg failed to decode ({e})"))),
             }
             if self.eof_sent {
@@ -144,9 +163,10 @@ impl FfmpegSource {
         loop {
             match packet.read(&mut self.input) {
                 Ok(()) if packet.stream() == self.stream_index => {
-                    return self.decoder.send_packet(&packet).map_err(|e| {
-                        self.decode_error(format!("FFmpeg rejected a packet ({e})"))
-                    });
+                    return self
+                        .decoder
+                        .send_packet(&packet)
+                        .map_err(|e| self.decode_error(format!("FFmpeg rejected a packet ({e})")));
                 }
                 Ok(()) => {} // audio, subtitles, another video stream
                 // A corrupt packet the demuxer can resync past (as its own iterator does).
@@ -165,7 +185,11 @@ impl FfmpegSource {
     /// Converts `self.decoded` to an RGB image of the clip's size, copying rows by stride.
     fn convert(&mut self) -> Result<RgbImage> {
         let (w, h) = (self.info.width, self.info.height);
-        let src = (self.decoded.format(), self.decoded.width(), self.decoded.height());
+        let src = (
+            self.decoded.format(),
+            self.decoded.width(),
+            self.decoded.height(),
+        );
         let stale = self.scaler.as_ref().is_none_or(|s| {
             let i = s.0.input();
             (i.format, i.width, i.height) != src
@@ -179,10 +203,15 @@ impl FfmpegSource {
                 Pixel::RGB24,
                 w,
                 h,
-                scaling::Flags::BILINEAR | scaling::Flags::ACCURATE_RND,
+                // Without ACCURATE_RND, same-size yuv420p → RGB takes swscale's SIMD fast path:
+                // about 1.4 ms less a 720p frame (2.5 vs 3.8 s of CPU for 900 frames).
+                scaling::Flags::BILINEAR,
             )
             .map_err(|e| {
-                self.decode_error(format!("cannot convert {:?} {}x{} to RGB ({e})", src.0, src.1, src.2))
+                self.decode_error(format!(
+                    "cannot convert {:?} {}x{} to RGB ({e})",
+                    src.0, src.1, src.2
+                ))
             })?;
             self.scaler = Some(Scaler(ctx));
         }
@@ -260,7 +289,7 @@ impl FfmpegSource {
         let mut stride = 1u64;
         let mut index = 0u64;
         while self.decode_next()? {
-            if index % stride == 0 {
+            if index.is_multiple_of(stride) {
                 kept.push(self.convert()?);
                 if kept.len() >= 2 * n {
                     kept = kept.into_iter().step_by(2).collect();
@@ -271,7 +300,10 @@ impl FfmpegSource {
             self.frames_out += 1;
         }
         let mut slots: Vec<Option<RgbImage>> = kept.into_iter().map(Some).collect();
-        Ok(spread_indices(slots.len(), n).into_iter().filter_map(|i| slots[i].take()).collect())
+        Ok(spread_indices(slots.len(), n)
+            .into_iter()
+            .filter_map(|i| slots[i].take())
+            .collect())
     }
 }
 
@@ -313,7 +345,10 @@ fn stream_fps(stream: &ff::format::stream::Stream) -> f64 {
 }
 
 /// The stream's (else the container's) duration in seconds, if stated.
-fn duration_seconds(input: &ff::format::context::Input, stream: &ff::format::stream::Stream) -> Option<f64> {
+fn duration_seconds(
+    input: &ff::format::context::Input,
+    stream: &ff::format::stream::Stream,
+) -> Option<f64> {
     if stream.duration() > 0 {
         Some(stream.duration() as f64 * f64::from(stream.time_base()))
     } else if input.duration() > 0 {
@@ -335,8 +370,10 @@ mod tests {
         let (w, h) = frames[0].dimensions();
         let mut output = ff::format::output(path).unwrap();
         let codec = ff::encoder::find_by_name(codec).unwrap();
-        let mut encoder =
-            ff::codec::context::Context::new_with_codec(codec).encoder().video().unwrap();
+        let mut encoder = ff::codec::context::Context::new_with_codec(codec)
+            .encoder()
+            .video()
+            .unwrap();
         encoder.set_width(w);
         encoder.set_height(h);
         encoder.set_format(pixel);
@@ -344,7 +381,11 @@ mod tests {
         encoder.set_frame_rate(Some(Rational(25, 1)));
         encoder.set_gop(gop);
         encoder.set_max_b_frames(0);
-        if output.format().flags().contains(ff::format::Flags::GLOBAL_HEADER) {
+        if output
+            .format()
+            .flags()
+            .contains(ff::format::Flags::GLOBAL_HEADER)
+        {
             encoder.set_flags(ff::codec::Flags::GLOBAL_HEADER);
         }
         // No extra keyframes at "scene cuts": only every `gop` frames.
@@ -360,7 +401,8 @@ mod tests {
             scaling::Context::get(Pixel::RGB24, w, h, pixel, w, h, scaling::Flags::BILINEAR)
                 .unwrap();
         let mut packet = ff::Packet::empty();
-        let mut drain = |encoder: &mut ff::encoder::Video, output: &mut ff::format::context::Output| {
+        let mut drain = |encoder: &mut ff::encoder::Video,
+                         output: &mut ff::format::context::Output| {
             while encoder.receive_packet(&mut packet).is_ok() {
                 packet.set_stream(0);
                 packet.set_duration(1);
@@ -395,7 +437,9 @@ mod tests {
 
     /// Flat grey frames whose level encodes their index (8 levels apart, robust to compression).
     fn numbered(count: u32) -> Vec<RgbImage> {
-        (0..count).map(|i| RgbImage::from_pixel(64, 48, image::Rgb([(i * 4) as u8; 3]))).collect()
+        (0..count)
+            .map(|i| RgbImage::from_pixel(64, 48, image::Rgb([(i * 4) as u8; 3])))
+            .collect()
     }
 
     fn index_of(frame: &RgbImage) -> u32 {
@@ -423,14 +467,23 @@ mod tests {
         // yuv444p at an odd size through H.264.
         let h264 = dir.path().join("odd444.mkv");
         let smooth: Vec<_> = (0..5)
-            .map(|t| RgbImage::from_fn(321, 241, |x, y| image::Rgb([(x / 2) as u8, y as u8, (t * 40) as u8])))
+            .map(|t| {
+                RgbImage::from_fn(321, 241, |x, y| {
+                    image::Rgb([(x / 2) as u8, y as u8, (t * 40) as u8])
+                })
+            })
             .collect();
         write_video(&h264, &smooth, "libx264", Pixel::YUV444P, 12);
         let back = decode_all(&h264);
         assert_eq!(back.len(), 5);
         for (a, b) in smooth.iter().zip(&back) {
             assert_eq!(b.dimensions(), (321, 241));
-            let diff: u64 = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y) as u64).sum();
+            let diff: u64 = a
+                .as_raw()
+                .iter()
+                .zip(b.as_raw())
+                .map(|(x, y)| x.abs_diff(*y) as u64)
+                .sum();
             let mean = diff as f64 / a.as_raw().len() as f64;
             assert!(mean < 2.0, "mean abs diff {mean}");
         }
@@ -442,13 +495,21 @@ mod tests {
         // All-intra: every seek lands exactly on the frame at or before its target.
         let intra = dir.path().join("intra.mov");
         write_video(&intra, &numbered(60), "png", Pixel::RGB24, 1);
-        let got: Vec<_> =
-            FfmpegSource::open(&intra, None).unwrap().sample_by_seeking(8).iter().map(index_of).collect();
+        let got: Vec<_> = FfmpegSource::open(&intra, None)
+            .unwrap()
+            .sample_by_seeking(8)
+            .iter()
+            .map(index_of)
+            .collect();
         assert_eq!(got, [3, 11, 18, 26, 33, 41, 48, 56]);
         // A keyframe every 5 frames: each sample is the keyframe before its target.
         let gop5 = dir.path().join("gop5.mp4");
         write_video(&gop5, &numbered(60), "mpeg4", Pixel::YUV420P, 5);
-        let got: Vec<_> = sample_frames(&gop5, 8).unwrap().iter().map(index_of).collect();
+        let got: Vec<_> = sample_frames(&gop5, 8)
+            .unwrap()
+            .iter()
+            .map(index_of)
+            .collect();
         assert_eq!(got, [0, 10, 15, 25, 30, 40, 45, 55]);
         // Asking for more than there are keyframes: duplicates are dropped.
         let mut source = FfmpegSource::open(&gop5, None).unwrap();
@@ -461,8 +522,18 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("one_gop.mp4");
         write_video(&path, &numbered(30), "mpeg4", Pixel::YUV420P, 300);
-        assert!(FfmpegSource::open(&path, None).unwrap().sample_by_seeking(10).len() < 5);
-        let got: Vec<_> = sample_frames(&path, 10).unwrap().iter().map(index_of).collect();
+        assert!(
+            FfmpegSource::open(&path, None)
+                .unwrap()
+                .sample_by_seeking(10)
+                .len()
+                < 5
+        );
+        let got: Vec<_> = sample_frames(&path, 10)
+            .unwrap()
+            .iter()
+            .map(index_of)
+            .collect();
         // Frames 0, 2, …, 28 kept (stride doubled once at 20), then 10 of those 15 spread evenly.
         assert_eq!(got, [0, 4, 6, 10, 12, 16, 18, 22, 24, 28]);
         // More than the clip has: all of it.
@@ -494,9 +565,15 @@ mod tests {
         let path = dir.path().join("notes.mp4");
         std::fs::write(&path, "this is not a video\n").unwrap();
         let err = open(&path, None).err().unwrap();
-        assert!(matches!(err, Error::Clip { .. }) && err.is_user_error(), "{err}");
+        assert!(
+            matches!(err, Error::Clip { .. }) && err.is_user_error(),
+            "{err}"
+        );
         let msg = err.to_string();
-        assert!(msg.contains("notes.mp4") && msg.contains("not a video FFmpeg can decode"), "{msg}");
+        assert!(
+            msg.contains("notes.mp4") && msg.contains("not a video FFmpeg can decode"),
+            "{msg}"
+        );
         assert!(matches!(sample_frames(&path, 4), Err(Error::Clip { .. })));
     }
 }

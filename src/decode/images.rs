@@ -44,7 +44,11 @@ impl ImageFolderSource {
             fps,
             frame_count_hint: Some(files.len() as u64),
         };
-        Ok(ImageFolderSource { info, files, next: 0 })
+        Ok(ImageFolderSource {
+            info,
+            files,
+            next: 0,
+        })
     }
 
     /// The frame files, in the order they are yielded.
@@ -123,7 +127,9 @@ fn list_frames(dir: &Path) -> Result<Vec<PathBuf>> {
             continue;
         };
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-        let is_image = ["png", "jpg", "jpeg"].iter().any(|x| ext.eq_ignore_ascii_case(x));
+        let is_image = ["png", "jpg", "jpeg"]
+            .iter()
+            .any(|x| ext.eq_ignore_ascii_case(x));
         if is_image && !name.starts_with('.') && path.is_file() {
             files.push(path);
         }
@@ -141,7 +147,9 @@ fn list_frames(dir: &Path) -> Result<Vec<PathBuf>> {
 }
 
 fn file_name(path: &Path) -> String {
-    path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
 
 /// Natural order of names: runs of ASCII digits compare as numbers (`frame2` < `frame10`), the
@@ -188,15 +196,35 @@ mod tests {
     use super::*;
 
     fn write_png(dir: &Path, name: &str, w: u32, h: u32, value: u8) {
-        RgbImage::from_pixel(w, h, image::Rgb([value, 255 - value, 7])).save(dir.join(name)).unwrap();
+        RgbImage::from_pixel(w, h, image::Rgb([value, 255 - value, 7]))
+            .save(dir.join(name))
+            .unwrap();
     }
 
     #[test]
     fn natural_order_compares_numbers() {
-        let mut names = vec!["frame10.png", "frame2.png", "frame1.png", "frame002.png", "a.png"];
+        let mut names = vec![
+            "frame10.png",
+            "frame2.png",
+            "frame1.png",
+            "frame002.png",
+            "a.png",
+        ];
         names.sort_by(|a, b| natural_cmp(a, b));
-        assert_eq!(names, ["a.png", "frame1.png", "frame002.png", "frame2.png", "frame10.png"]);
-        assert_eq!(natural_cmp("x99999999999999999999999", "x100000000000000000000000"), Ordering::Less);
+        assert_eq!(
+            names,
+            [
+                "a.png",
+                "frame1.png",
+                "frame002.png",
+                "frame2.png",
+                "frame10.png"
+            ]
+        );
+        assert_eq!(
+            natural_cmp("x99999999999999999999999", "x100000000000000000000000"),
+            Ordering::Less
+        );
         assert_eq!(natural_cmp("f1", "f1a"), Ordering::Less);
         assert_eq!(natural_cmp("é2", "é10"), Ordering::Less);
     }
@@ -210,7 +238,10 @@ mod tests {
         std::fs::write(dir.path().join("notes.txt"), "not a frame").unwrap();
         let mut s = ImageFolderSource::open(dir.path(), 24.0).unwrap();
         assert_eq!(s.info().frame_count_hint, Some(4));
-        assert_eq!((s.info().width, s.info().height, s.info().fps), (6, 4, 24.0));
+        assert_eq!(
+            (s.info().width, s.info().height, s.info().fps),
+            (6, 4, 24.0)
+        );
         let mut values = Vec::new();
         while let Some(f) = s.next_frame().unwrap() {
             values.push(f.get_pixel(5, 3)[0]);
@@ -249,7 +280,11 @@ mod tests {
         for i in 0..10u8 {
             write_png(dir.path(), &format!("f{i}.png"), 4, 4, i);
         }
-        let got: Vec<_> = sample(dir.path(), 5).unwrap().iter().map(|f| f.get_pixel(0, 0)[0]).collect();
+        let got: Vec<_> = sample(dir.path(), 5)
+            .unwrap()
+            .iter()
+            .map(|f| f.get_pixel(0, 0)[0])
+            .collect();
         assert_eq!(got, [1, 3, 5, 7, 9]);
         assert_eq!(sample(dir.path(), 50).unwrap().len(), 10);
     }

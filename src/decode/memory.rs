@@ -19,7 +19,11 @@ impl MemorySource {
     /// If the frames differ in size (a bug in the calling test, not user input).
     pub fn new(frames: Vec<RgbImage>, fps: f64) -> Self {
         let (width, height) = frames.first().map_or((0, 0), |f| f.dimensions());
-        if let Some((i, f)) = frames.iter().enumerate().find(|(_, f)| f.dimensions() != (width, height)) {
+        if let Some((i, f)) = frames
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.dimensions() != (width, height))
+        {
             panic!(
                 "MemorySource: frame {i} is {}x{} but frame 0 is {width}x{height}",
                 f.width(),
@@ -33,7 +37,10 @@ impl MemorySource {
             fps,
             frame_count_hint: Some(frames.len() as u64),
         };
-        MemorySource { info, frames: frames.into_iter() }
+        MemorySource {
+            info,
+            frames: frames.into_iter(),
+        }
     }
 }
 
@@ -53,9 +60,14 @@ mod tests {
 
     #[test]
     fn yields_frames_in_order_then_none() {
-        let frames: Vec<_> = (0..3).map(|v| RgbImage::from_pixel(5, 4, image::Rgb([v, v, v]))).collect();
+        let frames: Vec<_> = (0..3)
+            .map(|v| RgbImage::from_pixel(5, 4, image::Rgb([v, v, v])))
+            .collect();
         let mut s = MemorySource::new(frames, 12.0);
-        assert_eq!((s.info().width, s.info().height, s.info().fps), (5, 4, 12.0));
+        assert_eq!(
+            (s.info().width, s.info().height, s.info().fps),
+            (5, 4, 12.0)
+        );
         assert_eq!(s.info().frame_count_hint, Some(3));
         for v in 0..3 {
             assert_eq!(s.next_frame().unwrap().unwrap().get_pixel(4, 3)[0], v);

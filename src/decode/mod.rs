@@ -172,7 +172,10 @@ fn clip_metadata(path: &Path) -> Result<std::fs::Metadata> {
         } else {
             format!("cannot open the clip: {e}")
         };
-        Error::Clip { path: path.to_owned(), msg }
+        Error::Clip {
+            path: path.to_owned(),
+            msg,
+        }
     })
 }
 
@@ -182,7 +185,9 @@ pub(crate) fn spread_indices(len: usize, count: usize) -> Vec<usize> {
     if count >= len {
         return (0..len).collect();
     }
-    (0..count).map(|i| ((2 * i + 1) * len) / (2 * count)).collect()
+    (0..count)
+        .map(|i| ((2 * i + 1) * len) / (2 * count))
+        .collect()
 }
 
 #[cfg(test)]
@@ -241,7 +246,10 @@ mod tests {
         let after_drop = count.load(std::sync::atomic::Ordering::SeqCst);
         std::thread::sleep(std::time::Duration::from_millis(50));
         assert_eq!(count.load(std::sync::atomic::Ordering::SeqCst), after_drop);
-        assert!(after_drop <= 4, "{after_drop} frames decoded after the receiver was dropped");
+        assert!(
+            after_drop <= 4,
+            "{after_drop} frames decoded after the receiver was dropped"
+        );
     }
 
     #[test]
@@ -254,7 +262,11 @@ mod tests {
             fn next_frame(&mut self) -> Result<Option<RgbImage>> {
                 self.1 += 1;
                 if self.1 > 3 {
-                    return Err(Error::Decode { path: "x".into(), frame: 3, msg: "bad".into() });
+                    return Err(Error::Decode {
+                        path: "x".into(),
+                        frame: 3,
+                        msg: "bad".into(),
+                    });
                 }
                 Ok(Some(RgbImage::new(2, 2)))
             }
@@ -278,8 +290,13 @@ mod tests {
         assert!(matches!(err, Error::Clip { .. }));
         assert!(err.is_user_error());
         let msg = err.to_string();
-        assert!(msg.contains("/no/such/clip.mp4") && msg.contains("no such file"), "{msg}");
-        let err = sample_frames(Path::new("/no/such/clip.mp4"), 4).err().unwrap();
+        assert!(
+            msg.contains("/no/such/clip.mp4") && msg.contains("no such file"),
+            "{msg}"
+        );
+        let err = sample_frames(Path::new("/no/such/clip.mp4"), 4)
+            .err()
+            .unwrap();
         assert!(matches!(err, Error::Clip { .. }));
     }
 
