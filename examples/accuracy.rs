@@ -37,45 +37,87 @@ fn main() -> anyhow::Result<()> {
         i += 1;
     }
     if scenarios.is_empty() {
-        scenarios = vec![Scenario::Walk, Scenario::Occlude, Scenario::Fast, Scenario::Squash, Scenario::Noisy];
+        scenarios = vec![
+            Scenario::Walk,
+            Scenario::Occlude,
+            Scenario::Fast,
+            Scenario::Squash,
+            Scenario::Noisy,
+        ];
     }
     let tmp = tempfile::tempdir()?;
     for sc in scenarios {
-        let clip = render(&SynthOptions { scenario: sc, width: size.0, height: size.1, seed, frames });
+        let clip = render(&SynthOptions {
+            scenario: sc,
+            width: size.0,
+            height: size.1,
+            seed,
+            frames,
+        });
         let dir = tmp.path().join(sc.name());
         write_clip(&clip, &dir)?;
         let opts = TrackOptions {
-            clip: dir.join("clip.mp4"),
-            seeds: dir.join("joints.toml"),
             out: Some(dir.join("run")),
-            fps: None,
-            background: None,
-            no_background: false,
-            params: mocap2d::cli::read_params(std::env::var("PARAMS").ok().as_deref().map(std::path::Path::new))?,
+            params: mocap2d::cli::read_params(
+                std::env::var("PARAMS")
+                    .ok()
+                    .as_deref()
+                    .map(std::path::Path::new),
+            )?,
+            ..TrackOptions::new(dir.join("clip.mp4"), dir.join("joints.toml"))
         };
         let t0 = std::time::Instant::now();
         if memory {
             // Track the rendered frames directly (no encode/decode), to separate tracker
             // errors from compression and decoding.
             let (seeds, _) = mocap2d::seed::read_seeds(&opts.seeds)?;
-            let bg = mocap2d::background::Background::fit(&clip.frames.iter().step_by(5).cloned().collect::<Vec<_>>())?;
+            let bg = mocap2d::background::Background::fit(
+                &clip.frames.iter().step_by(5).cloned().collect::<Vec<_>>(),
+            )?;
             let mut errs = Vec::new();
-            let frames = clip.frames.iter().cloned().enumerate().map(|(i, f)| Ok((i as u64, f)));
-            mocap2d::app::track_frames(frames, &seeds, &opts.params, Some(bg), &NoProgress, |f, est| {
-                for (j, e) in est.iter().enumerate() {
-                    let g = clip.gt[f as usize][j];
-                    errs.push(((e.pos.x - g.0).powi(2) + (e.pos.y - g.1).powi(2)).sqrt());
-                }
-                Ok(())
-            })?;
+            let frames = clip
+                .frames
+                .iter()
+                .cloned()
+                .enumerate()
+                .map(|(i, f)| Ok((i as u64, f)));
+            mocap2d::app::track_frames(
+                frames,
+                &seeds,
+                &opts.params,
+                Some(bg),
+                &NoProgress,
+                |f, est| {
+                    for (j, e) in est.iter().enumerate() {
+                        let g = clip.gt[f as usize][j];
+                        errs.push(((e.pos.x - g.0).powi(2) + (e.pos.y - g.1).powi(2)).sqrt());
+                    }
+                    Ok(())
+                },
+            )?;
             let fps = clip.frames.len() as f64 / t0.elapsed().as_secs_f64();
-            println!("{:<8} memory: {}  ({:.0} frames/s)", sc.name(), mocap2d::eval::summarise(&errs), fps);
+            println!(
+                "{:<8} memory: {}  ({:.0} frames/s)",
+                sc.name(),
+                mocap2d::eval::summarise(&errs),
+                fps
+            );
             continue;
         }
         let s = track(&opts, &NoProgress)?;
         let fps = s.tracked_frames as f64 / t0.elapsed().as_secs_f64();
-        let lines = mocap2d::app::eval(&dir.join("run"), &dir.join("gt.csv"), std::env::var("PER_JOINT").is_ok())?;
-        println!("{:<8} {}  ({:.0} frames/s, {:?})", sc.name(), lines[0], fps, s.status_counts);
+        let lines = mocap2d::app::eval(
+            &dir.join("run"),
+            &dir.join("gt.csv"),
+            std::env::var("PER_JOINT").is_ok(),
+        )?;
+        println!(
+            "{:<8} {}  ({:.0} frames/s, {:?})",
+            sc.name(),
+            lines[0],
+            fps,
+            s.status_counts
+        );
         for l in &lines[1..] {
             println!("    {l}");
         }

@@ -30,6 +30,22 @@ pub struct TrackOptions {
     pub params: TrackParams,
 }
 
+impl TrackOptions {
+    /// Options for tracking `clip` from `seeds` with every default: run folder beside the clip,
+    /// temporal-median background, default parameters.
+    pub fn new(clip: impl Into<PathBuf>, seeds: impl Into<PathBuf>) -> Self {
+        TrackOptions {
+            clip: clip.into(),
+            seeds: seeds.into(),
+            out: None,
+            fps: None,
+            background: None,
+            no_background: false,
+            params: TrackParams::default(),
+        }
+    }
+}
+
 /// What a finished `track` reports.
 #[derive(Debug, Clone)]
 pub struct TrackSummary {
@@ -43,19 +59,29 @@ pub struct TrackSummary {
 
 /// The default run folder for a clip: `<stem>.mocap` beside it.
 pub fn default_run_dir(clip: &Path) -> PathBuf {
-    let stem = clip.file_stem().map(|s| s.to_os_string()).unwrap_or_else(|| "clip".into());
+    let stem = clip
+        .file_stem()
+        .map(|s| s.to_os_string())
+        .unwrap_or_else(|| "clip".into());
     let mut name = stem;
     name.push(".mocap");
     clip.parent().unwrap_or(Path::new(".")).join(name)
 }
 
 /// Builds the background model the options ask for.
-pub fn background_for(opts: &TrackOptions, width: u32, height: u32) -> Result<(Option<Background>, String)> {
+pub fn background_for(
+    opts: &TrackOptions,
+    width: u32,
+    height: u32,
+) -> Result<(Option<Background>, String)> {
     if opts.no_background {
         return Ok((None, "none".into()));
     }
     if let Some(plate) = &opts.background {
-        return Ok((Some(Background::from_plate_file(plate, width, height)?), format!("plate:{}", plate.display())));
+        return Ok((
+            Some(Background::from_plate_file(plate, width, height)?),
+            format!("plate:{}", plate.display()),
+        ));
     }
     let samples = decode::sample_frames(&opts.clip, BACKGROUND_SAMPLES)?;
     let n = samples.len();
@@ -110,9 +136,15 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     let source: Box<dyn FrameSource> = decode::open(&opts.clip, opts.fps)?;
     let info = source.info().clone();
     seeds.check_against_clip(&opts.seeds, info.width, info.height, info.frame_count_hint)?;
-    let run_dir = opts.out.clone().unwrap_or_else(|| default_run_dir(&opts.clip));
+    let run_dir = opts
+        .out
+        .clone()
+        .unwrap_or_else(|| default_run_dir(&opts.clip));
     if run_dir.exists() && !run_dir.is_dir() {
-        return Err(Error::Usage(format!("{}: exists and is not a folder; choose another --out", run_dir.display())));
+        return Err(Error::Usage(format!(
+            "{}: exists and is not a folder; choose another --out",
+            run_dir.display()
+        )));
     }
     progress.start("background", None);
     let (background, bg_desc) = background_for(opts, info.width, info.height)?;
@@ -127,13 +159,20 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     let mut tracked = 0u64;
     progress.start("track", info.frame_count_hint);
     let rx = decode::spawn_reader(source, 8);
-    let result = track_frames(rx.into_iter(), &seeds, &opts.params, background, progress, |idx, est| {
-        tracked += 1;
-        for e in est {
-            *counts.entry(e.status.as_str()).or_default() += 1;
-        }
-        writer.write_frame(idx, &names, est)
-    });
+    let result = track_frames(
+        rx.into_iter(),
+        &seeds,
+        &opts.params,
+        background,
+        progress,
+        |idx, est| {
+            tracked += 1;
+            for e in est {
+                *counts.entry(e.status.as_str()).or_default() += 1;
+            }
+            writer.write_frame(idx, &names, est)
+        },
+    );
     progress.finish();
     let frames = match result {
         Ok(n) => n,
@@ -160,7 +199,11 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     let manifest = Manifest {
         tool: "mocap2d".into(),
         version: env!("CARGO_PKG_VERSION").into(),
-        clip: ClipId { path: opts.clip.display().to_string(), bytes, blake3 },
+        clip: ClipId {
+            path: opts.clip.display().to_string(),
+            bytes,
+            blake3,
+        },
         width: info.width,
         height: info.height,
         fps: info.fps,
@@ -179,7 +222,10 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         frames,
         tracked_frames: tracked,
         joints: seeds.joints.len(),
-        status_counts: counts.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+        status_counts: counts
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v))
+            .collect(),
     })
 }
 
@@ -189,7 +235,11 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
     let rows = crate::run::tracks::read_tracks(&run_dir.join("tracks.csv"))?;
     let first = rows.first().map_or(0, |r| r.frame);
     let gt = crate::eval::read_gt(gt)?;
-    let errs = crate::eval::errors(rows.iter().map(|r| (r.frame, r.joint.as_str(), r.x, r.y)), &gt, first);
+    let errs = crate::eval::errors(
+        rows.iter().map(|r| (r.frame, r.joint.as_str(), r.x, r.y)),
+        &gt,
+        first,
+    );
     let all: Vec<f32> = errs.iter().map(|e| e.2).collect();
     let mut lines = vec![format!("all joints: {}", crate::eval::summarise(&all))];
     if per_joint {

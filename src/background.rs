@@ -23,12 +23,14 @@ impl Background {
     /// foreground threshold set from the measured noise: 4× the median absolute L1 deviation
     /// of the samples from the plate, at least [`MIN_THRESHOLD`].
     pub fn fit(samples: &[RgbImage]) -> Result<Background> {
-        let first = samples
-            .first()
-            .ok_or_else(|| Error::Usage("background: no frames to build a clean plate from".into()))?;
+        let first = samples.first().ok_or_else(|| {
+            Error::Usage("background: no frames to build a clean plate from".into())
+        })?;
         let (w, h) = first.dimensions();
         if samples.iter().any(|s| s.dimensions() != (w, h)) {
-            return Err(Error::Usage("background: sampled frames differ in size".into()));
+            return Err(Error::Usage(
+                "background: sampled frames differ in size".into(),
+            ));
         }
         let n = samples.len();
         let mut plate = RgbImage::new(w, h);
@@ -53,14 +55,26 @@ impl Background {
             }
         }
         let mid = dists.len() / 2;
-        let noise = if dists.is_empty() { 0 } else { *dists.select_nth_unstable(mid).1 };
-        Ok(Background { plate, threshold: (4 * noise).max(MIN_THRESHOLD) })
+        let noise = if dists.is_empty() {
+            0
+        } else {
+            *dists.select_nth_unstable(mid).1
+        };
+        Ok(Background {
+            plate,
+            threshold: (4 * noise).max(MIN_THRESHOLD),
+        })
     }
 
     /// A background from a user-supplied clean plate (PNG/JPEG) of the clip's frame size.
     pub fn from_plate_file(path: &Path, width: u32, height: u32) -> Result<Background> {
         let img = image::open(path)
-            .map_err(|e| Error::Usage(format!("{}: cannot read the clean plate: {e}", path.display())))?
+            .map_err(|e| {
+                Error::Usage(format!(
+                    "{}: cannot read the clean plate: {e}",
+                    path.display()
+                ))
+            })?
             .to_rgb8();
         if img.dimensions() != (width, height) {
             return Err(Error::Usage(format!(
@@ -70,7 +84,10 @@ impl Background {
                 img.height()
             )));
         }
-        Ok(Background { plate: img, threshold: MIN_THRESHOLD })
+        Ok(Background {
+            plate: img,
+            threshold: MIN_THRESHOLD,
+        })
     }
 
     /// Global brightness gain of `frame` relative to the plate (1 = same exposure): the median,
@@ -114,7 +131,9 @@ impl Background {
 
 #[inline]
 fn l1(a: [u8; 3], b: [u8; 3]) -> u32 {
-    (0..3).map(|c| (a[c] as i32 - b[c] as i32).unsigned_abs()).sum()
+    (0..3)
+        .map(|c| (a[c] as i32 - b[c] as i32).unsigned_abs())
+        .sum()
 }
 
 #[cfg(test)]
@@ -143,6 +162,10 @@ mod tests {
         assert!(!bg.is_foreground(&frames[0], 10, 3));
         // A frame 10 % brighter everywhere has gain 1.1.
         let bright = RgbImage::from_pixel(20, 10, Rgb([110, 121, 132]));
-        assert!((bg.gain(&bright) - 1.1).abs() < 0.01, "{}", bg.gain(&bright));
+        assert!(
+            (bg.gain(&bright) - 1.1).abs() < 0.01,
+            "{}",
+            bg.gain(&bright)
+        );
     }
 }

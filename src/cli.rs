@@ -5,7 +5,11 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
-#[command(name = "mocap2d", version, about = "Capture joint motion from a 2D video and retarget it")]
+#[command(
+    name = "mocap2d",
+    version,
+    about = "Capture joint motion from a 2D video and retarget it"
+)]
 pub struct Cli {
     /// No progress bars (they are also off when stderr is not a terminal).
     #[arg(long, short, global = true)]
@@ -80,21 +84,36 @@ pub struct SynthArgs {
 
 /// Parses `WIDTHxHEIGHT` (px).
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 640x360"))?;
-    let p = |v: &str| v.trim().parse::<u32>().map_err(|_| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 640x360"));
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 640x360"))?;
+    let p = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{s:?}: expected WIDTHxHEIGHT, e.g. 640x360"))
+    };
     let (w, h) = (p(w)?, p(h)?);
     if w < 16 || h < 16 || w > 8192 || h > 8192 || w % 2 == 1 || h % 2 == 1 {
-        return Err(format!("{s:?}: width and height must be even, from 16 to 8192 px"));
+        return Err(format!(
+            "{s:?}: width and height must be even, from 16 to 8192 px"
+        ));
     }
     Ok((w, h))
 }
 
 /// Reads a tracking-parameter TOML file; unknown keys are errors naming the key.
 pub fn read_params(path: Option<&std::path::Path>) -> crate::Result<TrackParams> {
-    let Some(path) = path else { return Ok(TrackParams::default()) };
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| crate::Error::Usage(format!("{}: cannot read the parameter file: {e}", path.display())))?;
-    toml::from_str(&text).map_err(|e| crate::Error::Usage(format!("{}: {}", path.display(), e.message())))
+    let Some(path) = path else {
+        return Ok(TrackParams::default());
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        crate::Error::Usage(format!(
+            "{}: cannot read the parameter file: {e}",
+            path.display()
+        ))
+    })?;
+    toml::from_str(&text)
+        .map_err(|e| crate::Error::Usage(format!("{}: {}", path.display(), e.message())))
 }
 
 #[cfg(test)]
@@ -103,7 +122,10 @@ mod tests {
 
     #[test]
     fn parses_track_flags() {
-        let cli = Cli::try_parse_from(["mocap2d", "track", "a.mp4", "--seeds", "j.toml", "--fps", "24"]).unwrap();
+        let cli = Cli::try_parse_from([
+            "mocap2d", "track", "a.mp4", "--seeds", "j.toml", "--fps", "24",
+        ])
+        .unwrap();
         match cli.command {
             Command::Track(a) => {
                 assert_eq!(a.clip, PathBuf::from("a.mp4"));

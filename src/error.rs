@@ -12,7 +12,12 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 pub enum Error {
     /// A seed (or segment) file that is malformed or inconsistent.
     #[error("{}: {}{}{msg}", path.display(), line.map(|l| format!("line {l}: ")).unwrap_or_default(), joint.as_ref().map(|j| format!("joint {j:?}: ")).unwrap_or_default())]
-    Seed { path: PathBuf, line: Option<usize>, joint: Option<String>, msg: String },
+    Seed {
+        path: PathBuf,
+        line: Option<usize>,
+        joint: Option<String>,
+        msg: String,
+    },
 
     /// A clip that is missing, empty or that FFmpeg cannot open.
     #[error("{}: {msg}", path.display())]
@@ -20,7 +25,11 @@ pub enum Error {
 
     /// Decoding failed part-way through a clip that opened fine.
     #[error("{}: frame {frame}: {msg}", path.display())]
-    Decode { path: PathBuf, frame: u64, msg: String },
+    Decode {
+        path: PathBuf,
+        frame: u64,
+        msg: String,
+    },
 
     /// A run folder that does not fit the command (another clip, missing files, edited manifest).
     #[error("{}: {msg}", path.display())]
@@ -58,6 +67,9 @@ impl Error {
 
     /// Wraps an I/O error with the path it concerns.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io {
+            path: path.into(),
+            source,
+        }
     }
 }

@@ -54,7 +54,13 @@ pub fn summarise(errors: &[f32]) -> Accuracy {
         e[(((e.len() - 1) as f32) * p).round() as usize]
     };
     let within = |t: f32| e.iter().filter(|&&v| v <= t).count() as f32 / e.len().max(1) as f32;
-    Accuracy { count: e.len(), median_px: q(0.5), p95_px: q(0.95), pck5: within(5.0), pck10: within(10.0) }
+    Accuracy {
+        count: e.len(),
+        median_px: q(0.5),
+        p95_px: q(0.95),
+        pck5: within(5.0),
+        pck10: within(10.0),
+    }
 }
 
 /// Reads a ground-truth CSV (`frame,joint,x,y`).
@@ -63,7 +69,9 @@ pub fn read_gt(path: &Path) -> Result<Vec<GtRow>> {
         .map_err(|e| Error::Usage(format!("{}: cannot read ground truth: {e}", path.display())))?;
     rdr.deserialize()
         .enumerate()
-        .map(|(i, r)| r.map_err(|e| Error::Usage(format!("{}: line {}: {e}", path.display(), i + 2))))
+        .map(|(i, r)| {
+            r.map_err(|e| Error::Usage(format!("{}: line {}: {e}", path.display(), i + 2)))
+        })
         .collect()
 }
 
@@ -110,8 +118,18 @@ mod tests {
     #[test]
     fn missing_rows_count_as_misses() {
         let gt = vec![
-            GtRow { frame: 0, joint: "a".into(), x: 0.0, y: 0.0 },
-            GtRow { frame: 1, joint: "a".into(), x: 3.0, y: 4.0 },
+            GtRow {
+                frame: 0,
+                joint: "a".into(),
+                x: 0.0,
+                y: 0.0,
+            },
+            GtRow {
+                frame: 1,
+                joint: "a".into(),
+                x: 3.0,
+                y: 4.0,
+            },
         ];
         let e = errors([(0u64, "a", 0.0f32, 0.0f32)], &gt, 0);
         assert_eq!(e[0].2, 0.0);

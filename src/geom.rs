@@ -31,7 +31,13 @@ pub struct JointBox {
 impl JointBox {
     /// An axis-aligned box from its centre (px) and size (px).
     pub fn centred(cx: f32, cy: f32, w: u32, h: u32) -> Self {
-        JointBox { cx, cy, w, h, angle_rad: 0.0 }
+        JointBox {
+            cx,
+            cy,
+            w,
+            h,
+            angle_rad: 0.0,
+        }
     }
 
     /// The centre as a point (px).

@@ -2,9 +2,9 @@
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
+use mocap2d::app;
 use mocap2d::cli::{Cli, Command};
 use mocap2d::progress::Progress;
-use mocap2d::app;
 use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::sync::Mutex;
@@ -22,9 +22,11 @@ impl Progress for Bars {
         }
         let bar = match total {
             Some(n) => ProgressBar::new(n).with_style(
-                ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} frames {per_sec} eta {eta}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar())
-                    .progress_chars("=> "),
+                ProgressStyle::with_template(
+                    "{msg:>10} [{bar:40}] {pos}/{len} frames {per_sec} eta {eta}",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
             ),
             None => ProgressBar::new_spinner(),
         };
@@ -45,7 +47,10 @@ impl Progress for Bars {
 }
 
 fn run(cli: Cli) -> mocap2d::Result<()> {
-    let bars = Bars { on: !cli.quiet && std::io::stderr().is_terminal(), bar: Mutex::new(None) };
+    let bars = Bars {
+        on: !cli.quiet && std::io::stderr().is_terminal(),
+        bar: Mutex::new(None),
+    };
     match cli.command {
         Command::Track(a) => {
             let opts = app::TrackOptions {
@@ -58,7 +63,11 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 no_background: a.no_background,
             };
             let s = app::track(&opts, &bars)?;
-            let counts: Vec<String> = s.status_counts.iter().map(|(k, v)| format!("{k} {v}")).collect();
+            let counts: Vec<String> = s
+                .status_counts
+                .iter()
+                .map(|(k, v)| format!("{k} {v}"))
+                .collect();
             eprintln!(
                 "tracked {} joints over {} frames -> {} ({})",
                 s.joints,
@@ -77,7 +86,12 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
             };
             let clip = mocap2d::synth::render(&opts);
             mocap2d::synth::write_clip(&clip, &a.out)?;
-            eprintln!("wrote {} frames of {} to {}", clip.frames.len(), a.scenario, a.out.display());
+            eprintln!(
+                "wrote {} frames of {} to {}",
+                clip.frames.len(),
+                a.scenario,
+                a.out.display()
+            );
         }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
@@ -103,4 +117,3 @@ fn main() -> ExitCode {
         }
     }
 }
-

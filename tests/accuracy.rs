@@ -11,16 +11,17 @@ use std::path::Path;
 /// Tracks a 320×240, 60-frame synth clip and returns (median px, PCK@5 in 0–1).
 fn synth_accuracy(scenario: Scenario) -> (f32, f32) {
     let dir = tempfile::tempdir().unwrap();
-    let clip = render(&SynthOptions { scenario, width: 320, height: 240, seed: 1, frames: Some(60) });
+    let clip = render(&SynthOptions {
+        scenario,
+        width: 320,
+        height: 240,
+        seed: 1,
+        frames: Some(60),
+    });
     write_clip(&clip, dir.path()).unwrap();
     let opts = TrackOptions {
-        clip: dir.path().join("clip.mp4"),
-        seeds: dir.path().join("joints.toml"),
         out: Some(dir.path().join("run")),
-        fps: None,
-        background: None,
-        no_background: false,
-        params: Default::default(),
+        ..TrackOptions::new(dir.path().join("clip.mp4"), dir.path().join("joints.toml"))
     };
     track(&opts, &NoProgress).unwrap();
     let line = &eval(&dir.path().join("run"), &dir.path().join("gt.csv"), false).unwrap()[0];
@@ -67,18 +68,16 @@ fn squash_and_noisy_and_occlude_are_tracked_in_part() {
 fn flies_clip_runs_and_reports_its_error() {
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/clips/flies");
     if !shared.join("clip.mp4").exists() {
-        eprintln!("note: {} is absent; the flies regression was not run", shared.display());
+        eprintln!(
+            "note: {} is absent; the flies regression was not run",
+            shared.display()
+        );
         return;
     }
     let dir = tempfile::tempdir().unwrap();
     let opts = TrackOptions {
-        clip: shared.join("clip.mp4"),
-        seeds: shared.join("joints.toml"),
         out: Some(dir.path().join("run")),
-        fps: None,
-        background: None,
-        no_background: false,
-        params: Default::default(),
+        ..TrackOptions::new(shared.join("clip.mp4"), shared.join("joints.toml"))
     };
     let s = track(&opts, &NoProgress).unwrap();
     assert_eq!(s.frames, 1500);

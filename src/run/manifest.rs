@@ -43,7 +43,9 @@ impl Manifest {
     pub fn read(path: &Path) -> Result<Manifest> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::RunFolder {
             path: path.to_owned(),
-            msg: format!("cannot read the run manifest ({e}); is this a folder written by `mocap2d track`?"),
+            msg: format!(
+                "cannot read the run manifest ({e}); is this a folder written by `mocap2d track`?"
+            ),
         })?;
         toml::from_str(&text).map_err(|e| Error::RunFolder {
             path: path.to_owned(),
@@ -54,7 +56,9 @@ impl Manifest {
     /// Serialises to TOML text (deterministic).
     pub fn to_toml(&self) -> String {
         let body = toml::to_string(self).expect("manifest fields are all plain TOML values");
-        format!("# written by mocap2d; do not edit: later commands check the clip against it\n{body}")
+        format!(
+            "# written by mocap2d; do not edit: later commands check the clip against it\n{body}"
+        )
     }
 }
 
@@ -84,7 +88,11 @@ pub fn hash_clip(path: &Path) -> Result<(u64, String)> {
             .collect();
         names.sort();
         for p in names {
-            hasher.update(p.file_name().map(|n| n.as_encoded_bytes()).unwrap_or_default());
+            hasher.update(
+                p.file_name()
+                    .map(|n| n.as_encoded_bytes())
+                    .unwrap_or_default(),
+            );
             add_file(&p, &mut hasher)?;
         }
     } else {

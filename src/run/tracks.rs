@@ -40,11 +40,20 @@ impl TracksWriter {
         let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
         let mut out = std::io::BufWriter::with_capacity(1 << 16, file);
         writeln!(out, "{HEADER}").map_err(|e| Error::io(&tmp, e))?;
-        Ok(TracksWriter { path: path.to_owned(), tmp, out })
+        Ok(TracksWriter {
+            path: path.to_owned(),
+            tmp,
+            out,
+        })
     }
 
     /// Appends the rows of one frame, joints in seed-file order.
-    pub fn write_frame(&mut self, frame: u64, names: &[String], est: &[JointEstimate]) -> Result<()> {
+    pub fn write_frame(
+        &mut self,
+        frame: u64,
+        names: &[String],
+        est: &[JointEstimate],
+    ) -> Result<()> {
         for (name, e) in names.iter().zip(est) {
             writeln!(
                 self.out,
@@ -63,7 +72,10 @@ impl TracksWriter {
     /// Flushes, syncs and renames the file into place.
     pub fn finish(self) -> Result<()> {
         let tmp = self.tmp;
-        let file = self.out.into_inner().map_err(|e| Error::io(&tmp, e.into_error()))?;
+        let file = self
+            .out
+            .into_inner()
+            .map_err(|e| Error::io(&tmp, e.into_error()))?;
         file.sync_all().map_err(|e| Error::io(&tmp, e))?;
         std::fs::rename(&tmp, &self.path).map_err(|e| Error::io(&self.path, e))
     }
@@ -78,7 +90,10 @@ pub fn read_tracks(path: &Path) -> Result<Vec<TrackRow>> {
     rdr.deserialize()
         .enumerate()
         .map(|(i, r)| {
-            r.map_err(|e| Error::RunFolder { path: path.to_owned(), msg: format!("line {}: {e}", i + 2) })
+            r.map_err(|e| Error::RunFolder {
+                path: path.to_owned(),
+                msg: format!("line {}: {e}", i + 2),
+            })
         })
         .collect()
 }

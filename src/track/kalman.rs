@@ -87,7 +87,11 @@ impl Kalman {
         self.sx = Vector3::new(p.x, v.x, 0.0);
         self.sy = Vector3::new(p.y, v.y, 0.0);
         let a = speed_sigma / 2.0;
-        self.cov = Matrix3::from_diagonal(&Vector3::new(pos_sigma * pos_sigma, speed_sigma * speed_sigma, a * a));
+        self.cov = Matrix3::from_diagonal(&Vector3::new(
+            pos_sigma * pos_sigma,
+            speed_sigma * speed_sigma,
+            a * a,
+        ));
     }
 
     /// Keeps the position inside `[lo, hi]` per axis (px), stopping motion along a clamped axis.

@@ -158,7 +158,16 @@ fn distinctiveness(seed_frame: &RgbImage, anchor: &Patch, b: JointBox, floor: f3
     let y0 = (b.cy - (b.h as f32 - 1.0) / 2.0).round() as i64;
     let mut sum = 0.0;
     let mut n = 0;
-    for (dx, dy) in [(-3, 0), (3, 0), (0, -3), (0, 3), (-2, -2), (2, 2), (-2, 2), (2, -2)] {
+    for (dx, dy) in [
+        (-3, 0),
+        (3, 0),
+        (0, -3),
+        (0, 3),
+        (-2, -2),
+        (2, 2),
+        (-2, 2),
+        (2, -2),
+    ] {
         let (x, y) = (x0 + dx, y0 + dy);
         if x >= 0 && y >= 0 && x + b.w as i64 <= fw && y + b.h as i64 <= fh {
             sum += search::ssd(seed_frame, &t, x as usize, y as usize, u64::MAX) as f64 / norm;
@@ -189,7 +198,12 @@ pub struct Tracker {
 
 impl Tracker {
     /// Starts tracking from the seed rectangles on `seed_frame`.
-    pub fn new(params: TrackParams, seeds: &Seeds, seed_frame: &RgbImage, background: Option<Background>) -> Self {
+    pub fn new(
+        params: TrackParams,
+        seeds: &Seeds,
+        seed_frame: &RgbImage,
+        background: Option<Background>,
+    ) -> Self {
         let sk = &seeds.skeleton;
         let centres: Vec<Point> = seeds.joints.iter().map(|j| j.bbox.centre()).collect();
         let joints = seeds
@@ -211,10 +225,22 @@ impl Tracker {
                     None => 0.0,
                 };
                 let side = patch_side(b.w, b.h);
-                let anchor = Patch::extract(seed_frame, background.as_ref(), b.centre(), b.angle_rad, side, side);
+                let anchor = Patch::extract(
+                    seed_frame,
+                    background.as_ref(),
+                    b.centre(),
+                    b.angle_rad,
+                    side,
+                    side,
+                );
                 let distinct_cost = distinctiveness(seed_frame, &anchor, b, params.cost_floor);
                 JointState {
-                    kalman: Kalman::new(b.centre(), params.speed_sigma, params.speed_sigma / 2.0, params.jerk_sigma),
+                    kalman: Kalman::new(
+                        b.centre(),
+                        params.speed_sigma,
+                        params.speed_sigma / 2.0,
+                        params.jerk_sigma,
+                    ),
                     w: b.w,
                     h: b.h,
                     running: anchor.clone(),
@@ -226,7 +252,12 @@ impl Tracker {
                     bone_len: sk.parents[i].map_or(0.0, |p| (centres[i] - centres[p]).norm()),
                     bone_dir: sk.parents[i].map_or(0.0, |p| direction(centres[p], centres[i])),
                     bone_turn: 0.0,
-                    last: JointEstimate { pos: b.centre(), angle_rad: b.angle_rad, score: 1.0, status: Status::Seed },
+                    last: JointEstimate {
+                        pos: b.centre(),
+                        angle_rad: b.angle_rad,
+                        score: 1.0,
+                        status: Status::Seed,
+                    },
                 }
             })
             .collect();
@@ -236,7 +267,10 @@ impl Tracker {
             order: sk.topo_order(),
             children: (0..sk.len()).map(|i| sk.children(i)).collect(),
             last_pos: Vec::new(),
-            seed_gain: background.as_ref().map_or(1.0, |b| b.gain(seed_frame)).max(1e-3),
+            seed_gain: background
+                .as_ref()
+                .map_or(1.0, |b| b.gain(seed_frame))
+                .max(1e-3),
             distinct: Vec::new(),
             joints,
             background,
@@ -265,10 +299,14 @@ impl Tracker {
         let p = &self.params;
         // 1. Predict every joint (eq. 4.3) and its rotation from the predicted bone.
         let preds: Vec<Point> = self.joints.iter_mut().map(|j| j.kalman.predict()).collect();
-        let pred_angles: Vec<f32> =
-            (0..self.joints.len()).map(|i| self.angle_of(i, &preds, self.joints[i].last.angle_rad)).collect();
+        let pred_angles: Vec<f32> = (0..self.joints.len())
+            .map(|i| self.angle_of(i, &preds, self.joints[i].last.angle_rad))
+            .collect();
         // Flicker / exposure drift: scale templates by this frame's gain over the seed frame's.
-        let gain = self.background.as_ref().map_or(1.0, |b| b.gain(frame) / self.seed_gain);
+        let gain = self
+            .background
+            .as_ref()
+            .map_or(1.0, |b| b.gain(frame) / self.seed_gain);
         // 2. Match every joint independently (eq. 4.5–4.6).
         let matches: Vec<search::Match> = self
             .joints
@@ -277,7 +315,8 @@ impl Tracker {
             .map(|(j, (&pred, &ang))| {
                 let mut appearance = j.running.clone();
                 appearance.blend(&j.anchor, p.anchor_weight);
-                let t = Template::from_patch_gain(&appearance, ang, j.w as usize, j.h as usize, gain);
+                let t =
+                    Template::from_patch_gain(&appearance, ang, j.w as usize, j.h as usize, gain);
                 let sigma = (j.kalman.cov[(0, 0)] + p.meas_sigma_px * p.meas_sigma_px).sqrt();
                 let radius = (p.search_sigmas * sigma).clamp(p.search_min_px, p.search_max_px);
                 search::search(frame, &t, pred, radius, p.geo_weight)
@@ -312,17 +351,27 @@ impl Tracker {
             if seen {
                 j.hidden_run = 0;
                 // A poorer match is a noisier measurement (eq. 4.4's R grows with the cost).
-                let var = p.meas_sigma_px * p.meas_sigma_px * (1.0 + p.low_score_noise * ratio * ratio);
+                let var =
+                    p.meas_sigma_px * p.meas_sigma_px * (1.0 + p.low_score_noise * ratio * ratio);
                 j.kalman.update(m.pos, var);
-                status = if score >= 0.5 { Status::Ok } else { Status::Low };
+                status = if score >= 0.5 {
+                    Status::Ok
+                } else {
+                    Status::Low
+                };
             } else {
                 j.hidden_run += 1;
-                status = if j.hidden_run > p.lost_after_frames { Status::Lost } else { Status::Occluded };
+                status = if j.hidden_run > p.lost_after_frames {
+                    Status::Lost
+                } else {
+                    Status::Occluded
+                };
                 match parent {
                     Some(par) => {
                         j.bone_turn *= 0.8;
                         let dir = j.bone_dir + j.bone_turn;
-                        let at = pts[par] + crate::geom::Vector::new(dir.cos(), dir.sin()) * j.bone_len;
+                        let at =
+                            pts[par] + crate::geom::Vector::new(dir.cos(), dir.sin()) * j.bone_len;
                         let v = at - j.last.pos;
                         j.kalman.reset(at, v * 0.5, 1.0, p.speed_sigma);
                     }
@@ -332,7 +381,8 @@ impl Tracker {
                         let mut sum = crate::geom::Vector::zeros();
                         let mut k = 0.0;
                         for &c in &self.children[i] {
-                            if matches[c].colour_cost <= 0.5 * p.occlusion_ratio * self.distinct[c] {
+                            if matches[c].colour_cost <= 0.5 * p.occlusion_ratio * self.distinct[c]
+                            {
                                 sum += matches[c].pos.coords - (self.last_pos[c] - j.last.pos);
                                 k += 1.0;
                             }
@@ -347,7 +397,8 @@ impl Tracker {
                     }
                 }
             }
-            j.kalman.clamp_to(Point::new(0.0, 0.0), Point::new(fw - 1.0, fh - 1.0));
+            j.kalman
+                .clamp_to(Point::new(0.0, 0.0), Point::new(fw - 1.0, fh - 1.0));
             pts[i] = j.kalman.position();
             if let Some(par) = parent {
                 let v = pts[i] - pts[par];
@@ -362,25 +413,37 @@ impl Tracker {
             }
             decided[i] = (score, status);
         }
-        let out: Vec<(usize, f32, Status)> = decided.iter().enumerate().map(|(i, &(s, st))| (i, s, st)).collect();
+        let out: Vec<(usize, f32, Status)> = decided
+            .iter()
+            .enumerate()
+            .map(|(i, &(s, st))| (i, s, st))
+            .collect();
         // 4. Rotations from the new centres; running appearance on confident frames.
         let mut result = Vec::with_capacity(out.len());
         for (i, score, status) in out {
             let angle = self.angle_of(i, &pts, self.joints[i].last.angle_rad);
-            let est = JointEstimate { pos: pts[i], angle_rad: angle, score, status };
+            let est = JointEstimate {
+                pos: pts[i],
+                angle_rad: angle,
+                score,
+                status,
+            };
             result.push(est);
         }
         let bg = self.background.as_ref();
         let rate = p.update_rate;
-        self.joints.par_iter_mut().zip(result.par_iter()).for_each(|(j, est)| {
-            j.last = *est;
-            if est.status == Status::Ok && est.score > 0.6 {
-                let side = j.anchor.w;
-                let mut fresh = Patch::extract(frame, bg, est.pos, est.angle_rad, side, side);
-                fresh.rgb.iter_mut().for_each(|v| *v /= gain);
-                j.running.blend(&fresh, rate);
-            }
-        });
+        self.joints
+            .par_iter_mut()
+            .zip(result.par_iter())
+            .for_each(|(j, est)| {
+                j.last = *est;
+                if est.status == Status::Ok && est.score > 0.6 {
+                    let side = j.anchor.w;
+                    let mut fresh = Patch::extract(frame, bg, est.pos, est.angle_rad, side, side);
+                    fresh.rgb.iter_mut().for_each(|v| *v /= gain);
+                    j.running.blend(&fresh, rate);
+                }
+            });
         result
     }
 }

@@ -48,7 +48,13 @@ pub fn ssd(frame: &RgbImage, t: &Template, x0: usize, y0: usize, limit: u64) -> 
 /// Searches integer centres within `radius_px` of `pred` (clipped so the template stays inside
 /// the frame) and returns the best sub-pixel centre. `geo_weight` is W_g in units where the
 /// colour term is in [0, 1] and the distance is divided by the radius.
-pub fn search(frame: &RgbImage, t: &Template, pred: Point, radius_px: f32, geo_weight: f32) -> Match {
+pub fn search(
+    frame: &RgbImage,
+    t: &Template,
+    pred: Point,
+    radius_px: f32,
+    geo_weight: f32,
+) -> Match {
     let (fw, fh) = (frame.width() as i64, frame.height() as i64);
     let (tw, th) = (t.w as i64, t.h as i64);
     let hx = (t.w as f32 - 1.0) / 2.0;
@@ -71,7 +77,8 @@ pub fn search(frame: &RgbImage, t: &Template, pred: Point, radius_px: f32, geo_w
     let mut best = (f64::INFINITY, xmin, ymin, 0u64);
     // Visit candidates in order of distance from the prediction so early exit bites sooner;
     // ties keep the first visited, which makes the result independent of anything but inputs.
-    let mut cands: Vec<(i64, i64, i64)> = Vec::with_capacity(((xmax - xmin + 1) * (ymax - ymin + 1)) as usize);
+    let mut cands: Vec<(i64, i64, i64)> =
+        Vec::with_capacity(((xmax - xmin + 1) * (ymax - ymin + 1)) as usize);
     for y in ymin..=ymax {
         for x in xmin..=xmax {
             let d2 = (x - px) * (x - px) + (y - py) * (y - py);
@@ -136,12 +143,20 @@ mod tests {
     #[test]
     fn finds_a_5x5_template() {
         let img = RgbImage::from_fn(30, 30, |x, y| {
-            Rgb([((x * 37 + y * 11) % 251) as u8, ((x * x + 3 * y) % 199) as u8, ((x * y) % 97) as u8])
+            Rgb([
+                ((x * 37 + y * 11) % 251) as u8,
+                ((x * x + 3 * y) % 199) as u8,
+                ((x * y) % 97) as u8,
+            ])
         });
         let patch = Patch::extract(&img, None, Point::new(17.0, 12.0), 0.0, 5, 5);
         let t = Template::from_patch(&patch, 0.0, 5, 5);
         let m = search(&img, &t, Point::new(14.0, 14.0), 6.0, 0.0);
-        assert!((m.pos.x - 17.0).abs() < 0.5 && (m.pos.y - 12.0).abs() < 0.5, "{:?}", m.pos);
+        assert!(
+            (m.pos.x - 17.0).abs() < 0.5 && (m.pos.y - 12.0).abs() < 0.5,
+            "{:?}",
+            m.pos
+        );
         assert_eq!(m.colour_cost, 0.0);
     }
 
@@ -170,6 +185,10 @@ mod tests {
         let patch = Patch::extract(&a, None, Point::new(20.0, 20.0), 0.0, 11, 11);
         let t = Template::from_patch(&patch, 0.0, 11, 11);
         let m = search(&b, &t, Point::new(20.0, 20.0), 4.0, 0.0);
-        assert!((m.pos.x - 21.3).abs() < 0.2 && (m.pos.y - 19.6).abs() < 0.2, "{:?}", m.pos);
+        assert!(
+            (m.pos.x - 21.3).abs() < 0.2 && (m.pos.y - 19.6).abs() < 0.2,
+            "{:?}",
+            m.pos
+        );
     }
 }

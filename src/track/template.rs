@@ -45,7 +45,10 @@ pub fn sample(img: &RgbImage, x: f32, y: f32) -> [f32; 3] {
 /// Local offset (px) of patch pixel `(i, j)` from the patch centre.
 #[inline]
 fn offset(i: usize, j: usize, w: usize, h: usize) -> (f32, f32) {
-    (i as f32 - (w as f32 - 1.0) / 2.0, j as f32 - (h as f32 - 1.0) / 2.0)
+    (
+        i as f32 - (w as f32 - 1.0) / 2.0,
+        j as f32 - (h as f32 - 1.0) / 2.0,
+    )
 }
 
 impl Patch {
@@ -111,13 +114,23 @@ impl Patch {
         let y1 = (y0 + 1).min(self.h - 1);
         let fx = x - x0 as f32;
         let fy = y - y0 as f32;
-        let wts = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
-        let idx = [y0 * self.w + x0, y0 * self.w + x1, y1 * self.w + x0, y1 * self.w + x1];
+        let wts = [
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        ];
+        let idx = [
+            y0 * self.w + x0,
+            y0 * self.w + x1,
+            y1 * self.w + x0,
+            y1 * self.w + x1,
+        ];
         let mut c = [0.0f32; 3];
         let mut m = 0.0f32;
         for (wt, ix) in wts.iter().zip(idx) {
-            for k in 0..3 {
-                c[k] += wt * self.rgb[ix * 3 + k];
+            for (ck, v) in c.iter_mut().zip(&self.rgb[ix * 3..ix * 3 + 3]) {
+                *ck += wt * v;
             }
             m += wt * self.mask[ix];
         }
@@ -154,7 +167,13 @@ impl Template {
 
     /// As [`Template::from_patch`], with colours scaled by `gain` (the frame's brightness
     /// relative to the patch's, see [`crate::background::Background::gain`]).
-    pub fn from_patch_gain(patch: &Patch, angle_rad: f32, w: usize, h: usize, gain: f32) -> Template {
+    pub fn from_patch_gain(
+        patch: &Patch,
+        angle_rad: f32,
+        w: usize,
+        h: usize,
+        gain: f32,
+    ) -> Template {
         let (s, c) = angle_rad.sin_cos();
         let mut rgb = vec![0i16; w * h * 3];
         let mut mask = vec![0i16; w * h * 3];
@@ -181,7 +200,13 @@ impl Template {
             mask.fill(-1);
             active = w * h * 3;
         }
-        Template { w, h, rgb, mask, active }
+        Template {
+            w,
+            h,
+            rgb,
+            mask,
+            active,
+        }
     }
 }
 
@@ -220,7 +245,10 @@ mod tests {
                 let want = img.get_pixel(16 + i as u32, 16 + j as u32).0;
                 for ch in 0..3 {
                     let got = t.rgb[(j * 9 + i) * 3 + ch];
-                    assert!((got - want[ch] as i16).abs() <= 1, "{i},{j}: {got} vs {want:?}");
+                    assert!(
+                        (got - want[ch] as i16).abs() <= 1,
+                        "{i},{j}: {got} vs {want:?}"
+                    );
                 }
             }
         }
