@@ -1,0 +1,478 @@
+//! The `mocap2d` binary end to end on the bundled sample clip (`clips/walk`, 320×240 px, 60
+//! frames, 14 joints): the run folder `track` writes, determinism, image-folder input, `eval`,
+//! and the exit code and message of every user error. Each test works in a fresh temp dir.
+//!
+//! The sample clip is an mp4, so the file needs the `ffmpeg` feature (on by default).
+#![cfg(feature = "ffmpeg")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The bundled sample: clip.mp4, joints.toml, gt.csv, background.png.
+fn walk(file: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("clips/walk")
+        .join(file)
+}
+
+/// Joints in clips/walk/joints.toml and frames in clips/walk/clip.mp4.
+const JOINTS: usize = 14;
+const FRAMES: usize = 60;
+
+/// The status words `tracks.csv` may hold.
+const STATUS_WORDS: &[&str] = &["seed", "ok", "low", "occluded", "lost"];
+
+/// A fresh temp dir to run the binary in.
+struct Dir {
+    tmp: tempfile::TempDir,
+}
+
+impl Dir {
+    fn new() -> Dir {
+        Dir {
+            tmp: tempfile::tempdir().unwrap(),
+        }
+    }
+
+    fn path(&self, rel: &str) -> PathBuf {
+        self.tmp.path().join(rel)
+    }
+
+    fn write(&self, rel: &str, text: &str) -> PathBuf {
+        let p = self.path(rel);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    /// Runs `mocap2d ARGS` with the temp dir as working directory.
+    fn run(&self, args: &[&str]) -> Output {
+        Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+            .args(args)
+            .current_dir(self.tmp.path())
+            .output()
+            .unwrap()
+    }
+
+    /// Runs `mocap2d track CLIP --seeds SEEDS --out OUT`, asserting success.
+    fn track_ok(&self, clip: &Path, seeds: &Path, out: &str, extra: &[&str]) -> PathBuf {
+        let mut args = vec!["track", s(clip), "--seeds", s(seeds), "--out", out];
+        args.extend_from_slice(extra);
+        let o = self.run(&args);
+        assert_exit(&o, 0);
+        self.path(out)
+    }
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn assert_exit(o: &Output, code: i32) {
+    assert_eq!(
+        o.status.code(),
+        Some(code),
+        "exit code; stdout:\n{}\nstderr:\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        stderr(o)
+    );
+}
+
+fn read(p: &Path) -> String {
+    std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// The seed file of the sample with `from` replaced by `to` (which must occur).
+fn edited_seeds(from: &str, to: &str) -> String {
+    let text = read(&walk("joints.toml"));
+    assert!(text.contains(from), "joints.toml has no {from:?}");
+    text.replacen(from, to, 1)
+}
+
+/// The sample's seed file moved to frame `frame`: rectangles centred on the ground truth there.
+fn seeds_on_frame(frame: u64) -> String {
+    let gt = read(&walk("gt.csv"));
+    let at = |joint: &str| -> (String, String) {
+        let prefix = format!("{frame},{joint},");
+        let line = gt.lines().find(|l| l.starts_with(&prefix)).unwrap();
+        let v: Vec<&str> = line.split(',').collect();
+        (v[2].to_owned(), v[3].to_owned())
+    };
+    let mut out = String::new();
+    let mut xy = None;
+    for line in read(&walk("joints.toml")).lines() {
+        if let Some(n) = line.strip_prefix("name = ") {
+            xy = Some(at(n.trim_matches('"')));
+        }
+        let line = match (line.split_once(" = "), &xy) {
+            (Some(("frame", _)), _) => format!("frame = {frame}"),
+            (Some(("x", _)), Some((x, _))) => format!("x = {x}"),
+            (Some(("y", _)), Some((_, y))) => format!("y = {y}"),
+            _ => line.to_owned(),
+        };
+        out.push_str(&line);
+        out.push('\n');
+    }
+    out
+}
+
+/// Checks `tracks.csv`: header, one row per joint per frame from `first` to the last frame in
+/// frame then seed-file order, a status word on every row, `seed` on the seed frame only.
+fn check_tracks(text: &str, first: usize) {
+    let names: Vec<String> = read(&walk("joints.toml"))
+        .lines()
+        .filter_map(|l| {
+            l.strip_prefix("name = ")
+                .map(|n| n.trim_matches('"').to_owned())
+        })
+        .collect();
+    assert_eq!(names.len(), JOINTS);
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("frame,joint,x,y,angle,score,status"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(
+        rows.len(),
+        JOINTS * (FRAMES - first),
+        "rows = joints × frames from the seed frame"
+    );
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r.len(), 7, "row {}: {r:?}", i + 2);
+        assert_eq!(
+            r[0].parse::<usize>().unwrap(),
+            first + i / JOINTS,
+            "row {}: {r:?}",
+            i + 2
+        );
+        assert_eq!(r[1], names[i % JOINTS], "row {}: {r:?}", i + 2);
+        for v in &r[2..6] {
+            assert!(
+                v.parse::<f32>().unwrap().is_finite(),
+                "row {}: {r:?}",
+                i + 2
+            );
+        }
+        let score: f32 = r[5].parse().unwrap();
+        assert!((0.0..=1.0).contains(&score), "row {}: {r:?}", i + 2);
+        assert!(STATUS_WORDS.contains(&r[6]), "row {}: {r:?}", i + 2);
+        assert_eq!(
+            r[6] == "seed",
+            i < JOINTS,
+            "`seed` marks the seed frame only; row {}: {r:?}",
+            i + 2
+        );
+    }
+}
+
+#[test]
+fn track_writes_tracks_manifest_and_seed_copy() {
+    let d = Dir::new();
+    let run = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "walk.mocap", &[]);
+    check_tracks(&read(&run.join("tracks.csv")), 0);
+    assert_eq!(
+        read(&run.join("seeds.toml")),
+        read(&walk("joints.toml")),
+        "seeds.toml is a verbatim copy"
+    );
+    let manifest = read(&run.join("run.toml"));
+    for line in [
+        "width = 320",
+        "height = 240",
+        &format!("frames = {FRAMES}"),
+        "seed_frame = 0",
+        &format!("joints = {JOINTS}"),
+        "[clip]",
+        &format!("path = {:?}", s(&walk("clip.mp4"))),
+        "[params]",
+    ] {
+        assert!(
+            manifest.lines().any(|l| l == line),
+            "run.toml has no line {line:?}:\n{manifest}"
+        );
+    }
+    let mut names: Vec<_> = std::fs::read_dir(&run)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        ["run.toml", "seeds.toml", "tracks.csv"],
+        "no temp files left behind"
+    );
+}
+
+#[test]
+fn track_starts_on_the_seed_frame() {
+    let d = Dir::new();
+    let seeds = d.write("frame10.toml", &seeds_on_frame(10));
+    let run = d.track_ok(&walk("clip.mp4"), &seeds, "walk.mocap", &[]);
+    check_tracks(&read(&run.join("tracks.csv")), 10);
+    assert!(read(&run.join("run.toml"))
+        .lines()
+        .any(|l| l == "seed_frame = 10"));
+}
+
+#[test]
+fn default_run_folder_is_beside_the_clip() {
+    let d = Dir::new();
+    std::fs::copy(walk("clip.mp4"), d.path("clip.mp4")).unwrap();
+    let o = d.run(&["track", "clip.mp4", "--seeds", s(&walk("joints.toml"))]);
+    assert_exit(&o, 0);
+    assert!(d.path("clip.mocap/tracks.csv").is_file(), "{}", stderr(&o));
+}
+
+#[test]
+fn two_runs_write_identical_files() {
+    let d = Dir::new();
+    let a = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "a.mocap", &[]);
+    let b = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "b.mocap", &[]);
+    for f in ["tracks.csv", "run.toml", "seeds.toml"] {
+        assert!(
+            std::fs::read(a.join(f)).unwrap() == std::fs::read(b.join(f)).unwrap(),
+            "{f} differs between runs"
+        );
+    }
+}
+
+/// Decodes the sample through the library and saves its frames as PNGs, so the folder holds the
+/// very pixels the mp4 decodes to.
+fn write_frames(dir: &Path) {
+    std::fs::create_dir_all(dir).unwrap();
+    let mut source = mocap2d::decode::open(&walk("clip.mp4"), None).unwrap();
+    let mut n = 0;
+    while let Some(frame) = source.next_frame().unwrap() {
+        n += 1;
+        frame.save(dir.join(format!("frame{n:04}.png"))).unwrap();
+    }
+    assert_eq!(n, FRAMES);
+}
+
+#[test]
+fn image_folder_tracks_like_the_video() {
+    let d = Dir::new();
+    write_frames(&d.path("frames"));
+    // A shared clean plate: the temporal-median background samples different frames from a
+    // video (keyframe seeks, or a strided decode) than from a folder, so it may differ.
+    let plate = walk("background.png");
+    let extra = ["--background", s(&plate)];
+    let video = d.track_ok(
+        &walk("clip.mp4"),
+        &walk("joints.toml"),
+        "video.mocap",
+        &extra,
+    );
+    let folder = d.track_ok(
+        &d.path("frames"),
+        &walk("joints.toml"),
+        "folder.mocap",
+        &extra,
+    );
+    let (tv, tf) = (
+        read(&video.join("tracks.csv")),
+        read(&folder.join("tracks.csv")),
+    );
+    check_tracks(&tf, 0);
+    assert!(
+        tv == tf,
+        "tracks.csv differs between the mp4 and its frames as PNGs"
+    );
+}
+
+#[test]
+fn eval_prints_accuracy() {
+    let d = Dir::new();
+    let run = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "walk.mocap", &[]);
+    let o = d.run(&["eval", s(&run), "--gt", s(&walk("gt.csv"))]);
+    assert_exit(&o, 0);
+    let out = String::from_utf8(o.stdout.clone()).unwrap();
+    assert!(out.lines().any(|l| l.contains("PCK@5")), "{out}");
+    let o = d.run(&["eval", s(&run), "--gt", s(&walk("gt.csv")), "--per-joint"]);
+    assert_exit(&o, 0);
+    let out = String::from_utf8(o.stdout.clone()).unwrap();
+    assert_eq!(
+        out.lines().filter(|l| l.contains("PCK@5")).count(),
+        1 + JOINTS,
+        "{out}"
+    );
+}
+
+#[test]
+fn params_file_is_recorded_and_checked() {
+    let d = Dir::new();
+    let params = d.write(
+        "params.toml",
+        "search_max_px = 40.0\nlost_after_frames = 12\n",
+    );
+    let run = d.track_ok(
+        &walk("clip.mp4"),
+        &walk("joints.toml"),
+        "walk.mocap",
+        &["--params", s(&params)],
+    );
+    let manifest = read(&run.join("run.toml"));
+    let unset = format!(
+        "search_min_px = {:?}",
+        mocap2d::track::TrackParams::default().search_min_px
+    );
+    for line in ["search_max_px = 40.0", "lost_after_frames = 12", &unset] {
+        assert!(
+            manifest.lines().any(|l| l == line),
+            "run.toml has no line {line:?}:\n{manifest}"
+        );
+    }
+    let bad = d.write("bad.toml", "search_max = 40.0\n");
+    let o = d.run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&walk("joints.toml")),
+        "--params",
+        s(&bad),
+        "--out",
+        "bad.mocap",
+    ]);
+    assert_user_error(&o, &["bad.toml", "search_max"]);
+    assert!(!d.path("bad.mocap").exists());
+}
+
+/// Exit code 2 and one message on stderr, `mocap2d: ...`, holding every string of `needles`.
+/// FFmpeg's own log lines (`[mov,mp4,...] ...`) are not counted.
+fn assert_user_error(o: &Output, needles: &[&str]) {
+    assert_exit(o, 2);
+    let err = stderr(o);
+    let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with('[')).collect();
+    assert_eq!(lines.len(), 1, "one message expected:\n{err}");
+    assert!(lines[0].starts_with("mocap2d: "), "{err}");
+    for n in needles {
+        assert!(lines[0].contains(n), "message lacks {n:?}:\n{err}");
+    }
+    assert!(
+        o.stdout.is_empty(),
+        "stdout: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+}
+
+#[test]
+fn bad_clips_exit_2_without_a_run_folder() {
+    let d = Dir::new();
+    d.write("x.mp4", "not a video\n");
+    std::fs::create_dir(d.path("empty")).unwrap();
+    d.write("empty/notes.txt", "no frames here\n");
+    let seeds = walk("joints.toml");
+    for clip in ["missing.mp4", "x.mp4", "empty"] {
+        let o = d.run(&["track", clip, "--seeds", s(&seeds), "--out", "out.mocap"]);
+        assert_user_error(&o, &[&format!("mocap2d: {clip}: ")]);
+        assert!(!d.path("out.mocap").exists(), "{clip}: run folder written");
+        assert!(!d
+            .path(&format!("{}.mocap", clip.trim_end_matches(".mp4")))
+            .exists());
+    }
+}
+
+#[test]
+fn seed_errors_exit_2_naming_file_line_and_joint() {
+    let d = Dir::new();
+    let cycle = "name = \"pelvis\"\nx = 211.330\ny = 154.781\nw = 15\nh = 15\n";
+    let cases: Vec<(&str, String, Vec<&str>)> = vec![
+        (
+            "unknown_key",
+            edited_seeds("w = 15\n", "colour = 3\nw = 15\n"),
+            vec!["line 9", "\"pelvis\"", "colour"],
+        ),
+        (
+            "missing_field",
+            edited_seeds("y = 119.872\n", ""),
+            vec!["line 12", "\"chest\"", "missing `y`"],
+        ),
+        (
+            "duplicate_name",
+            edited_seeds("name = \"neck\"", "name = \"chest\""),
+            vec!["line 21", "\"chest\"", "line 12"],
+        ),
+        (
+            "unknown_parent",
+            edited_seeds("parent = \"elbow_l\"", "parent = \"elbow_x\""),
+            vec!["\"wrist_l\"", "\"elbow_x\"", "did you mean \"elbow_l\""],
+        ),
+        (
+            "parent_cycle",
+            edited_seeds(cycle, &format!("{cycle}parent = \"chest\"\n")),
+            vec!["\"pelvis\"", "cycle"],
+        ),
+        (
+            "too_small",
+            edited_seeds("w = 15", "w = 4"),
+            vec!["line 9", "\"pelvis\"", "at least 5"],
+        ),
+        (
+            "outside",
+            edited_seeds("x = 211.330", "x = 318.0"),
+            vec!["line 5", "\"pelvis\"", "inside"],
+        ),
+        (
+            "beyond_clip",
+            edited_seeds("frame = 0", "frame = 100000"),
+            vec!["100000", "60 frames"],
+        ),
+        (
+            "no_joints",
+            "# nothing to track\nframe = 0\n".to_owned(),
+            vec!["no joints"],
+        ),
+        (
+            "bad_toml",
+            edited_seeds("w = 15", "w = = 15"),
+            vec!["line 9", "TOML"],
+        ),
+    ];
+    for (name, text, needles) in &cases {
+        let file = format!("{name}.toml");
+        d.write(&file, text);
+        let o = d.run(&[
+            "track",
+            s(&walk("clip.mp4")),
+            "--seeds",
+            &file,
+            "--out",
+            "out.mocap",
+        ]);
+        let mut all = vec![&*file];
+        all.extend(needles);
+        assert_user_error(&o, &all);
+        assert!(
+            stderr(&o).starts_with(&format!("mocap2d: {file}: ")),
+            "{name}: {}",
+            stderr(&o)
+        );
+        assert!(!d.path("out.mocap").exists(), "{name}: run folder written");
+    }
+    let o = d.run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        "nowhere.toml",
+        "--out",
+        "out.mocap",
+    ]);
+    assert_user_error(&o, &["nowhere.toml", "not found"]);
+    assert!(!d.path("out.mocap").exists());
+}
+
+#[test]
+fn bad_flags_exit_2() {
+    let d = Dir::new();
+    assert_exit(&d.run(&["track", s(&walk("clip.mp4"))]), 2);
+    assert_exit(
+        &d.run(&["synth", "walk", "--out", "x", "--size", "321x240"]),
+        2,
+    );
+    assert_exit(&d.run(&["frobnicate"]), 2);
+    assert!(
+        std::fs::read_dir(d.tmp.path()).unwrap().next().is_none(),
+        "nothing written"
+    );
+}
