@@ -84,6 +84,7 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 seed: a.seed,
                 frames: a.frames,
             };
+            opts.validate()?;
             let clip = mocap2d::synth::render(&opts);
             mocap2d::synth::write_clip(&clip, &a.out)?;
             eprintln!(
