@@ -1,0 +1,311 @@
+//! Throughput of each stage of `mocap2d track` on one clip, against FFmpeg's own decode.
+//!
+//!     cargo run --release --example bench -- CLIP_DIR [--reps 3] [--bin target/release/mocap2d]
+//!
+//! CLIP_DIR holds `clip.mp4` and `joints.toml` (as `mocap2d synth` writes them). Every stage runs
+//! `--reps` times; prints a markdown table of the median frames/s, its ratio to our decode and to
+//! the `ffmpeg` CLI, and the peak RSS. `scripts/bench` renders the clips and runs this.
+//!
+//! Peak RSS of in-process stages is VmHWM from /proc/self/status, reset before each stage by
+//! writing 5 to /proc/self/clear_refs (if the kernel refuses, it is cumulative: marked "≤").
+//! Child processes (`ffmpeg`, the `mocap2d` binary) are measured with GNU `/usr/bin/time -f %M`.
+
+use anyhow::{bail, Context, Result};
+use mocap2d::app::{self, TrackOptions, BACKGROUND_SAMPLES};
+use mocap2d::background::Background;
+use mocap2d::decode;
+use mocap2d::progress::NoProgress;
+use mocap2d::seed::read_seeds;
+use mocap2d::track::TrackParams;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+const GNU_TIME: &str = "/usr/bin/time";
+
+struct Row {
+    stage: &'static str,
+    fps: f64,
+    /// Peak resident set size, formatted.
+    rss: String,
+    what: String,
+}
+
+fn main() -> Result<()> {
+    let mut args = std::env::args().skip(1);
+    let (mut dir, mut reps, mut bin) = (None, 3, None);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--reps" => reps = args.next().context("--reps N")?.parse()?,
+            "--bin" => bin = Some(PathBuf::from(args.next().context("--bin PATH")?)),
+            _ if dir.is_none() && !a.starts_with('-') => dir = Some(PathBuf::from(a)),
+            _ => bail!("usage: bench CLIP_DIR [--reps N] [--bin PATH]"),
+        }
+    }
+    let dir = dir.context("usage: bench CLIP_DIR [--reps N] [--bin PATH]")?;
+    // target/release/examples/bench -> target/release/mocap2d
+    let bin = bin.unwrap_or_else(|| {
+        let exe = std::env::current_exe().unwrap_or_default();
+        exe.parent()
+            .and_then(Path::parent)
+            .unwrap_or(Path::new("."))
+            .join("mocap2d")
+    });
+    let clip = dir.join("clip.mp4");
+    let seeds_path = dir.join("joints.toml");
+    let (seeds, _) = read_seeds(&seeds_path)?;
+    let resettable = reset_peak();
+    let mut rows = Vec::new();
+    let mut notes = Vec::new();
+
+    // decode: FFmpeg (ffmpeg-next) decode + conversion to RGB, nothing else.
+    let mut frames = 0u64;
+    let (fps, rss) = stage("decode", reps, || {
+        let t = Instant::now();
+        let mut src = decode::open(&clip, None)?;
+        frames = 0;
+        while src.next_frame()?.is_some() {
+            frames += 1;
+        }
+        Ok((frames, t.elapsed().as_secs_f64()))
+    })?;
+    let decode_fps = fps;
+    let info = decode::open(&clip, None)?.info().clone();
+    rows.push(Row {
+        stage: "decode",
+        fps,
+        rss,
+        what: "`decode::open` + `next_frame` to RGB, all frames".into(),
+    });
+
+    // ffmpeg CLI: the external reference (decode only, no conversion to RGB).
+    let clip_arg = clip.to_str().context("clip path is not UTF-8")?;
+    let ffmpeg = [
+        "ffmpeg", "-v", "error", "-threads", "0", "-i", clip_arg, "-f", "null", "-",
+    ];
+    let (cli_fps, rss) = child_stage("ffmpeg CLI", reps, frames, &ffmpeg)?;
+    rows.push(Row {
+        stage: "ffmpeg CLI",
+        fps: cli_fps,
+        rss,
+        what: "`ffmpeg -threads 0 -i clip.mp4 -f null -`, wall clock; no RGB conversion".into(),
+    });
+
+    // background: sample frames across the clip + temporal median.
+    let mut bg = None;
+    let (fps, rss) = stage("background", reps, || {
+        let t = Instant::now();
+        let samples = decode::sample_frames(&clip, BACKGROUND_SAMPLES)?;
+        bg = Some(Background::fit(&samples)?);
+        Ok((frames, t.elapsed().as_secs_f64()))
+    })?;
+    rows.push(Row {
+        stage: "background",
+        fps,
+        rss,
+        what: format!(
+            "`sample_frames({BACKGROUND_SAMPLES})` + `Background::fit`: {:.0} ms (as frames/s over the clip)",
+            1000.0 * frames as f64 / fps
+        ),
+    });
+
+    // track: the whole command, in process.
+    let tmp = tempfile::tempdir()?;
+    let mut run = 0;
+    let (fps, rss) = stage("track", reps, || {
+        run += 1;
+        let opts = TrackOptions {
+            out: Some(tmp.path().join(format!("run{run}"))),
+            ..TrackOptions::new(clip.clone(), seeds_path.clone())
+        };
+        let t = Instant::now();
+        let s = app::track(&opts, &NoProgress)?;
+        Ok((s.frames, t.elapsed().as_secs_f64()))
+    })?;
+    rows.push(Row {
+        stage: "track",
+        fps,
+        rss,
+        what: "`app::track` end to end: decode thread, background, tracker, run folder".into(),
+    });
+
+    // track (binary): the same, as a child process.
+    if bin.is_file() {
+        let out = tmp.path().join("bin-run");
+        let cmd = [
+            bin.to_str().context("binary path is not UTF-8")?,
+            "track",
+            clip_arg,
+            "--seeds",
+            seeds_path.to_str().context("seeds path is not UTF-8")?,
+            "--out",
+            out.to_str().context("temp path is not UTF-8")?,
+            "--quiet",
+        ];
+        let (fps, rss) = child_stage("track (binary)", reps, frames, &cmd)?;
+        rows.push(Row {
+            stage: "track (binary)",
+            fps,
+            rss,
+            what: "`mocap2d track` as a child process, wall clock incl. start-up".into(),
+        });
+    } else {
+        notes.push(format!(
+            "{}: not built, so no `track (binary)` row",
+            bin.display()
+        ));
+    }
+
+    // track-only: the tracker over frames already decoded into memory.
+    let mut decoded = Vec::with_capacity(frames as usize);
+    let mut src = decode::open(&clip, None)?;
+    while let Some(f) = src.next_frame()? {
+        decoded.push(f);
+    }
+    let (fps, rss) = stage("track-only", reps, || {
+        let batch = decoded.clone(); // untimed: the tracker takes frames by value
+        let items = batch
+            .into_iter()
+            .enumerate()
+            .map(|(i, f)| Ok((i as u64, f)));
+        let t = Instant::now();
+        let n = app::track_frames(
+            items,
+            &seeds,
+            &TrackParams::default(),
+            bg.clone(),
+            &NoProgress,
+            |_, _| Ok(()),
+        )?;
+        Ok((n, t.elapsed().as_secs_f64()))
+    })?;
+    rows.push(Row {
+        stage: "track-only",
+        fps,
+        rss,
+        what: "`app::track_frames` over decoded frames in memory (RSS holds the clip twice)".into(),
+    });
+
+    println!(
+        "### {}: {}x{}, {frames} frames, {} joints\n",
+        dir.display(),
+        info.width,
+        info.height,
+        seeds.joints.len()
+    );
+    println!("| stage | frames/s (median of {reps}) | × decode | × ffmpeg CLI | peak RSS | what is timed |");
+    println!("|---|---:|---:|---:|---:|---|");
+    for r in &rows {
+        println!(
+            "| {} | {:.1} | {:.2} | {:.2} | {} | {} |",
+            r.stage,
+            r.fps,
+            r.fps / decode_fps,
+            r.fps / cli_fps,
+            r.rss,
+            r.what
+        );
+    }
+    if !resettable {
+        notes.push("/proc/self/clear_refs refused: in-process peak RSS is cumulative over the stages above it".into());
+    }
+    if !Path::new(GNU_TIME).is_file() {
+        notes.push(format!(
+            "{GNU_TIME} missing (apt package `time`): no peak RSS for child processes"
+        ));
+    }
+    for n in notes {
+        println!("\n_{n}_");
+    }
+    println!();
+    Ok(())
+}
+
+/// Runs `f` (which returns frames done and seconds timed) `reps` times; median frames/s and the
+/// peak RSS over the runs ("≤" when it could not be reset first, so includes earlier stages).
+fn stage(
+    name: &str,
+    reps: usize,
+    mut f: impl FnMut() -> Result<(u64, f64)>,
+) -> Result<(f64, String)> {
+    let reset = reset_peak();
+    let mut fps = Vec::new();
+    for _ in 0..reps {
+        let (n, secs) = f().with_context(|| format!("stage {name}"))?;
+        fps.push(n as f64 / secs);
+        eprintln!("{name}: {n} frames in {secs:.3} s");
+    }
+    let rss = match (peak_rss(), reset) {
+        (Some(k), true) => mib(k),
+        (Some(k), false) => format!("≤ {}", mib(k)),
+        (None, _) => "n/a".into(),
+    };
+    Ok((median(fps), rss))
+}
+
+/// Runs `cmd` `reps` times (under GNU time if present); median frames/s over `frames` and the
+/// largest peak RSS.
+fn child_stage(name: &str, reps: usize, frames: u64, cmd: &[&str]) -> Result<(f64, String)> {
+    let gnu_time = Path::new(GNU_TIME).is_file();
+    let rss_file = tempfile::NamedTempFile::new()?;
+    let mut fps = Vec::new();
+    let mut rss = None;
+    for _ in 0..reps {
+        let mut c = if gnu_time {
+            let mut c = Command::new(GNU_TIME);
+            c.arg("-f")
+                .arg("%M")
+                .arg("-o")
+                .arg(rss_file.path())
+                .args(cmd);
+            c
+        } else {
+            let mut c = Command::new(cmd[0]);
+            c.args(&cmd[1..]);
+            c
+        };
+        let t = Instant::now();
+        let out = c.output().with_context(|| format!("running {}", cmd[0]))?;
+        let secs = t.elapsed().as_secs_f64();
+        if !out.status.success() {
+            bail!(
+                "{name}: {} failed: {}",
+                cmd.join(" "),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        if gnu_time {
+            let kib: u64 = std::fs::read_to_string(rss_file.path())?.trim().parse()?;
+            rss = rss.max(Some(kib));
+        }
+        fps.push(frames as f64 / secs);
+        eprintln!("{name}: {frames} frames in {secs:.3} s");
+    }
+    Ok((median(fps), rss.map_or("n/a".into(), mib)))
+}
+
+fn mib(kib: u64) -> String {
+    format!("{:.0} MiB", kib as f64 / 1024.0)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
+}
+
+/// Resets this process's peak RSS (VmHWM) to its current RSS; false if the kernel refuses.
+fn reset_peak() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
+/// This process's peak RSS (VmHWM, KiB).
+fn peak_rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
