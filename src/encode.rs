@@ -480,15 +480,6 @@ mod tests {
         writer.finish().unwrap();
     }
 
-    fn decode_all(path: &Path) -> Vec<RgbImage> {
-        let mut source = decode::open(path, None).unwrap();
-        let mut frames = Vec::new();
-        while let Some(f) = source.next_frame().unwrap() {
-            frames.push(f);
-        }
-        frames
-    }
-
     #[test]
     fn round_trip_keeps_count_size_and_pixels() {
         let dir = tempfile::tempdir().unwrap();
@@ -501,7 +492,7 @@ mod tests {
         assert_eq!((info.width, info.height), (64, 48));
         assert!((info.fps - 25.0).abs() < 1e-9, "{}", info.fps);
         assert_eq!(info.frame_count_hint, Some(12));
-        let back = decode_all(&path);
+        let back = decode::read_all(&path, None).unwrap();
         assert_eq!(back.len(), 12);
         for (a, b) in frames.iter().zip(&back) {
             let d = mean_abs_diff(a, b);
@@ -543,7 +534,7 @@ mod tests {
             writer.write(f).unwrap();
         }
         writer.finish().unwrap();
-        let back = decode_all(&path);
+        let back = decode::read_all(&path, None).unwrap();
         assert_eq!(back.len(), 6);
         assert_eq!(back[0].dimensions(), (34, 26));
         let cropped = image::imageops::crop_imm(&back[3], 0, 0, 33, 25).to_image();

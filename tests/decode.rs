@@ -24,15 +24,6 @@ fn write_folder(dir: &Path, frames: &[RgbImage]) {
     }
 }
 
-fn read_all(path: &Path) -> Vec<RgbImage> {
-    let mut source = decode::open(path, None).unwrap();
-    let mut frames = Vec::new();
-    while let Some(f) = source.next_frame().unwrap() {
-        frames.push(f);
-    }
-    frames
-}
-
 #[test]
 fn image_folder_reads_back_exactly_in_natural_order() {
     let dir = tempfile::tempdir().unwrap();
@@ -45,7 +36,7 @@ fn image_folder_reads_back_exactly_in_natural_order() {
         (64, 48, decode::DEFAULT_IMAGE_FPS)
     );
     assert_eq!(info.frame_count_hint, Some(12));
-    assert!(read_all(dir.path()) == frames);
+    assert!(decode::read_all(dir.path(), None).unwrap() == frames);
     assert_eq!(
         decode::open(dir.path(), Some(12.0)).unwrap().info().fps,
         12.0
@@ -136,7 +127,7 @@ mod video {
         let dir = tempfile::tempdir().unwrap();
         let clip = dir.path().join("clip.mp4");
         let frames = write_clip(&clip, 24);
-        let decoded = read_all(&clip);
+        let decoded = decode::read_all(&clip, None).unwrap();
         assert_eq!(
             decoded.len(),
             24,
@@ -150,7 +141,7 @@ mod video {
         // The decoded frames saved as PNGs read back identical (PNG is lossless).
         let folder = dir.path().join("frames");
         write_folder(&folder, &decoded);
-        assert!(read_all(&folder) == decoded);
+        assert!(decode::read_all(&folder, None).unwrap() == decoded);
     }
 
     #[test]
@@ -158,7 +149,7 @@ mod video {
         let dir = tempfile::tempdir().unwrap();
         let clip = dir.path().join("clip.mkv");
         write_clip(&clip, 20);
-        let decoded = read_all(&clip);
+        let decoded = decode::read_all(&clip, None).unwrap();
         let rx = decode::spawn_reader(decode::open(&clip, None).unwrap(), 2);
         let got: Vec<_> = rx.iter().map(|item| item.unwrap()).collect();
         assert_eq!(got.len(), 20);

@@ -53,6 +53,17 @@ pub trait FrameSource: Send {
     fn next_frame(&mut self) -> Result<Option<RgbImage>>;
 }
 
+/// Decodes every frame of `path` into memory, in order. For tests and short clips only:
+/// `track` streams frames instead, so its memory does not grow with clip length.
+pub fn read_all(path: &Path, fps: Option<f64>) -> Result<Vec<RgbImage>> {
+    let mut source = open(path, fps)?;
+    let mut frames = Vec::new();
+    while let Some(f) = source.next_frame()? {
+        frames.push(f);
+    }
+    Ok(frames)
+}
+
 /// Opens a video file (via FFmpeg, feature "ffmpeg") or a directory of numbered PNG/JPEG frames
 /// (natural sort: frame2 < frame10); `fps` (frames per second) overrides the video's rate or sets
 /// the folder's (image folders default to [`DEFAULT_IMAGE_FPS`]).
