@@ -53,6 +53,9 @@ pub struct TrackParams {
     /// A match that makes its bone longer or shorter than its recent length by more than this
     /// share is rejected as a mismatch (the joint is then treated as hidden).
     pub bone_tolerance: f32,
+    /// A hidden joint found on the circle around its parent with a colour cost under this share
+    /// of its distinctiveness is taken as seen again (re-acquired).
+    pub reacquire_ratio: f32,
     /// Whether a root joint's rectangle turns with the bone to its first child (otherwise it
     /// keeps its seed orientation; a root's child is often the least reliable reference).
     pub rotate_roots: bool,
@@ -76,6 +79,7 @@ impl Default for TrackParams {
             occlusion_ratio: 0.8,
             cost_floor: 0.004,
             bone_tolerance: 0.3,
+            reacquire_ratio: 0.3,
             rotate_roots: false,
             lost_after_frames: 30,
         }
@@ -178,6 +182,34 @@ fn distinctiveness(seed_frame: &RgbImage, anchor: &Patch, b: JointBox, floor: f3
         return floor;
     }
     ((sum / n as f64) as f32).max(floor)
+}
+
+/// Looks for joint `j` on the circle of its bone's recent length around its parent at
+/// `parent_pos`, every 5°, with the template turned to each direction, then refines the best
+/// spot with a small window search. Returns the position (px) and its normalised colour cost.
+fn circle_search(
+    frame: &RgbImage,
+    j: &JointState,
+    parent_pos: Point,
+    gain: f32,
+    p: &TrackParams,
+) -> (Point, f32) {
+    let mut appearance = j.running.clone();
+    appearance.blend(&j.anchor, p.anchor_weight);
+    let mut best = (parent_pos, f32::INFINITY, 0.0f32);
+    for k in 0..72 {
+        let dir = (k as f32) * std::f32::consts::PI / 36.0;
+        let at = parent_pos + crate::geom::Vector::new(dir.cos(), dir.sin()) * j.bone_len;
+        let angle = dir - j.seed_dir;
+        let t = Template::from_patch_gain(&appearance, angle, j.w as usize, j.h as usize, gain);
+        let m = search::search(frame, &t, at, 1.0, 0.0);
+        if m.colour_cost < best.1 {
+            best = (m.pos, m.colour_cost, angle);
+        }
+    }
+    let t = Template::from_patch_gain(&appearance, best.2, j.w as usize, j.h as usize, gain);
+    let m = search::search(frame, &t, best.0, 3.0, 0.0);
+    (m.pos, m.colour_cost)
 }
 
 /// Tracks all joints of a seed file frame by frame.
@@ -347,8 +379,29 @@ impl Tracker {
                     seen = false;
                 }
             }
+            // A joint that is (or just went) hidden is looked for around its seen parent, at the
+            // bone's recent length and any direction: limbs come back at new angles.
+            let mut found = None;
+            if let (false, Some(par)) = (seen, parent) {
+                if matches!(decided[par].1, Status::Ok | Status::Low) {
+                    let (at, cost) = circle_search(frame, j, pts[par], gain, p);
+                    if cost <= p.reacquire_ratio * j.distinct_cost {
+                        found = Some((at, cost / j.distinct_cost));
+                    }
+                }
+            }
             let status;
-            if seen {
+            if let Some((at, r)) = found {
+                j.hidden_run = 0;
+                j.kalman.reset(
+                    at,
+                    crate::geom::Vector::zeros(),
+                    p.meas_sigma_px,
+                    p.speed_sigma,
+                );
+                decided[i].0 = (1.0 - r).clamp(0.0, 1.0);
+                status = Status::Low;
+            } else if seen {
                 j.hidden_run = 0;
                 // A poorer match is a noisier measurement (eq. 4.4's R grows with the cost).
                 let var =
@@ -411,7 +464,7 @@ impl Tracker {
                 }
                 j.bone_dir = dir;
             }
-            decided[i] = (score, status);
+            decided[i] = (if found.is_some() { decided[i].0 } else { score }, status);
         }
         let out: Vec<(usize, f32, Status)> = decided
             .iter()
