@@ -135,6 +135,9 @@ struct JointState {
     h: u32,
     anchor: Patch,
     running: Patch,
+    /// The template source: `anchor_weight`·anchor + the rest running, refreshed whenever
+    /// `running` changes.
+    appearance: Patch,
     /// Joint whose direction from (or to) this one defines the rectangle's rotation.
     reference: Option<(usize, bool)>,
     /// Direction (radians) of the reference bone on the seed frame, minus the seed angle.
@@ -157,7 +160,7 @@ struct JointState {
 fn distinctiveness(seed_frame: &RgbImage, anchor: &Patch, b: JointBox, floor: f32) -> f32 {
     let t = Template::from_patch(anchor, b.angle_rad, b.w as usize, b.h as usize);
     let (fw, fh) = (seed_frame.width() as i64, seed_frame.height() as i64);
-    let norm = (t.active.max(1) as f64) * 255.0 * 255.0;
+    let norm = t.cost_norm();
     let x0 = (b.cx - (b.w as f32 - 1.0) / 2.0).round() as i64;
     let y0 = (b.cy - (b.h as f32 - 1.0) / 2.0).round() as i64;
     let mut sum = 0.0;
@@ -187,27 +190,20 @@ fn distinctiveness(seed_frame: &RgbImage, anchor: &Patch, b: JointBox, floor: f3
 /// Looks for joint `j` on the circle of its bone's recent length around its parent at
 /// `parent_pos`, every 5°, with the template turned to each direction, then refines the best
 /// spot with a small window search. Returns the position (px) and its normalised colour cost.
-fn circle_search(
-    frame: &RgbImage,
-    j: &JointState,
-    parent_pos: Point,
-    gain: f32,
-    p: &TrackParams,
-) -> (Point, f32) {
-    let mut appearance = j.running.clone();
-    appearance.blend(&j.anchor, p.anchor_weight);
+fn circle_search(frame: &RgbImage, j: &JointState, parent_pos: Point, gain: f32) -> (Point, f32) {
+    let appearance = &j.appearance;
     let mut best = (parent_pos, f32::INFINITY, 0.0f32);
     for k in 0..72 {
         let dir = (k as f32) * std::f32::consts::PI / 36.0;
         let at = parent_pos + crate::geom::Vector::new(dir.cos(), dir.sin()) * j.bone_len;
         let angle = dir - j.seed_dir;
-        let t = Template::from_patch_gain(&appearance, angle, j.w as usize, j.h as usize, gain);
+        let t = Template::from_patch_gain(appearance, angle, j.w as usize, j.h as usize, gain);
         let m = search::search(frame, &t, at, 1.0, 0.0);
         if m.colour_cost < best.1 {
             best = (m.pos, m.colour_cost, angle);
         }
     }
-    let t = Template::from_patch_gain(&appearance, best.2, j.w as usize, j.h as usize, gain);
+    let t = Template::from_patch_gain(appearance, best.2, j.w as usize, j.h as usize, gain);
     let m = search::search(frame, &t, best.0, 3.0, 0.0);
     (m.pos, m.colour_cost)
 }
@@ -276,6 +272,7 @@ impl Tracker {
                     w: b.w,
                     h: b.h,
                     running: anchor.clone(),
+                    appearance: anchor.clone(),
                     anchor,
                     reference,
                     seed_dir: dir(reference) - b.angle_rad,
@@ -345,10 +342,8 @@ impl Tracker {
             .par_iter()
             .zip(preds.par_iter().zip(pred_angles.par_iter()))
             .map(|(j, (&pred, &ang))| {
-                let mut appearance = j.running.clone();
-                appearance.blend(&j.anchor, p.anchor_weight);
                 let t =
-                    Template::from_patch_gain(&appearance, ang, j.w as usize, j.h as usize, gain);
+                    Template::from_patch_gain(&j.appearance, ang, j.w as usize, j.h as usize, gain);
                 let sigma = (j.kalman.cov[(0, 0)] + p.meas_sigma_px * p.meas_sigma_px).sqrt();
                 let radius = (p.search_sigmas * sigma).clamp(p.search_min_px, p.search_max_px);
                 search::search(frame, &t, pred, radius, p.geo_weight)
@@ -384,7 +379,7 @@ impl Tracker {
             let mut found = None;
             if let (false, Some(par)) = (seen, parent) {
                 if matches!(decided[par].1, Status::Ok | Status::Low) {
-                    let (at, cost) = circle_search(frame, j, pts[par], gain, p);
+                    let (at, cost) = circle_search(frame, j, pts[par], gain);
                     if cost <= p.reacquire_ratio * j.distinct_cost {
                         found = Some((at, cost / j.distinct_cost));
                     }
@@ -455,7 +450,7 @@ impl Tracker {
             pts[i] = j.kalman.position();
             if let Some(par) = parent {
                 let v = pts[i] - pts[par];
-                let dir = unwrap_angle(j.bone_dir, v.y.atan2(v.x));
+                let dir = unwrap_angle(j.bone_dir, direction(pts[par], pts[i]));
                 if seen {
                     j.bone_turn = 0.5 * j.bone_turn + 0.5 * (dir - j.bone_dir);
                     if decided[par].1 != Status::Occluded && decided[par].1 != Status::Lost {
@@ -485,6 +480,7 @@ impl Tracker {
         }
         let bg = self.background.as_ref();
         let rate = p.update_rate;
+        let anchor_weight = p.anchor_weight;
         self.joints
             .par_iter_mut()
             .zip(result.par_iter())
@@ -495,6 +491,8 @@ impl Tracker {
                     let mut fresh = Patch::extract(frame, bg, est.pos, est.angle_rad, side, side);
                     fresh.rgb.iter_mut().for_each(|v| *v /= gain);
                     j.running.blend(&fresh, rate);
+                    j.appearance.clone_from(&j.running);
+                    j.appearance.blend(&j.anchor, anchor_weight);
                 }
             });
         result

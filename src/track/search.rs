@@ -67,7 +67,7 @@ pub fn search(
     let xmax = (px + r).clamp(0, fw - tw);
     let ymin = (py - r).clamp(0, fh - th);
     let ymax = (py + r).clamp(0, fh - th);
-    let norm = (t.active.max(1) as f64) * 255.0 * 255.0;
+    let norm = t.cost_norm();
     let r2 = (radius_px * radius_px).max(1.0) as f64;
     let geo = |x: i64, y: i64| -> f64 {
         let dx = (x as f64 + hx as f64) - pred.x as f64;

@@ -210,6 +210,14 @@ impl Template {
     }
 }
 
+impl Template {
+    /// Divisor that turns a raw masked SSD into the normalised colour cost in [0, 1]
+    /// (counted channel values × 255²).
+    pub fn cost_norm(&self) -> f64 {
+        (self.active.max(1) as f64) * 255.0 * 255.0
+    }
+}
+
 /// Side (px) of the square patch that covers a `w × h` rectangle at any rotation, plus a margin.
 pub fn patch_side(w: u32, h: u32) -> usize {
     ((w as f32).hypot(h as f32).ceil() as usize + 3) | 1
