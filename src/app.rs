@@ -151,8 +151,17 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
 
+    let created_dir = !run_dir.exists();
     std::fs::create_dir_all(&run_dir).map_err(|e| Error::io(&run_dir, e))?;
     let tracks_path = run_dir.join("tracks.csv");
+    // On failure leave nothing behind: the partial tracks and a folder this run made.
+    let abandon = |e: Error| -> Error {
+        let _ = std::fs::remove_file(crate::atomic::temp_path(&tracks_path));
+        if created_dir {
+            let _ = std::fs::remove_dir(&run_dir);
+        }
+        e
+    };
     let mut writer = TracksWriter::create(&tracks_path)?;
     let names: Vec<String> = seeds.joints.iter().map(|j| j.name.clone()).collect();
     let mut counts = std::collections::BTreeMap::<&'static str, u64>::new();
@@ -174,16 +183,9 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         },
     );
     progress.finish();
-    let frames = match result {
-        Ok(n) => n,
-        Err(e) => {
-            let _ = std::fs::remove_file(crate::atomic::temp_path(&tracks_path));
-            return Err(e);
-        }
-    };
+    let frames = result.map_err(abandon)?;
     if tracked == 0 {
-        let _ = std::fs::remove_file(crate::atomic::temp_path(&tracks_path));
-        return Err(Error::Seed {
+        return Err(abandon(Error::Seed {
             path: opts.seeds.clone(),
             line: None,
             joint: None,
@@ -192,7 +194,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
                 seeds.frame,
                 frames.saturating_sub(1)
             ),
-        });
+        }));
     }
     writer.finish()?;
     let (bytes, blake3) = hash_clip(&opts.clip)?;

@@ -476,3 +476,31 @@ fn bad_flags_exit_2() {
         "nothing written"
     );
 }
+
+#[test]
+fn failure_mid_clip_leaves_no_run_folder() {
+    let d = Dir::new();
+    write_frames(&d.path("frames"));
+    // Frame 30 keeps a valid PNG header (the folder opens fine) but loses its pixel data, so
+    // decoding fails there, after tracking has begun and the run folder exists.
+    let f30 = d.path("frames/frame0030.png");
+    let bytes = std::fs::read(&f30).unwrap();
+    std::fs::write(&f30, &bytes[..100]).unwrap();
+    let plate = walk("background.png");
+    let o = d.run(&[
+        "track",
+        s(&d.path("frames")),
+        "--seeds",
+        s(&walk("joints.toml")),
+        "--out",
+        "broken.mocap",
+        "--background",
+        s(&plate),
+    ]);
+    assert_ne!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("frame0030.png"), "{}", stderr(&o));
+    assert!(
+        !d.path("broken.mocap").exists(),
+        "a failed run left its folder behind"
+    );
+}
