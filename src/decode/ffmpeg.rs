@@ -32,15 +32,22 @@ pub struct FfmpegSource {
     input: ff::format::context::Input,
     stream_index: usize,
     decoder: ff::decoder::Video,
-    scaler: Option<Scaler>,
     /// The last frame the decoder gave, reused.
     decoded: ff::frame::Video,
-    /// The RGB conversion of `decoded`, reused.
-    rgb: ff::frame::Video,
+    to_rgb: RgbConverter,
     /// The demuxer is exhausted and the decoder told so; only buffered frames remain.
     eof_sent: bool,
     /// Frames returned so far (for error messages).
     frames_out: u64,
+}
+
+/// Converts decoded frames to RGB images of the clip's size.
+struct RgbConverter {
+    width: u32,
+    height: u32,
+    scaler: Option<Scaler>,
+    /// The (padded) RGB frame the scaler writes, reused.
+    rgb: ff::frame::Video,
 }
 
 /// A scaler (pixel-format converter) context, made `Send`.
@@ -121,9 +128,13 @@ impl FfmpegSource {
             input,
             stream_index,
             decoder,
-            scaler: None,
             decoded: ff::frame::Video::empty(),
-            rgb: ff::frame::Video::new(Pixel::RGB24, width, height),
+            to_rgb: RgbConverter {
+                width,
+                height,
+                scaler: None,
+                rgb: ff::frame::Video::new(Pixel::RGB24, width, height),
+            },
             eof_sent: false,
             frames_out: 0,
         })
@@ -182,66 +193,56 @@ impl FfmpegSource {
         }
     }
 
-    /// Converts `self.decoded` to an RGB image of the clip's size, copying rows by stride.
+    /// Converts `self.decoded` to an RGB image of the clip's size.
     fn convert(&mut self) -> Result<RgbImage> {
-        let (w, h) = (self.info.width, self.info.height);
-        let src = (
-            self.decoded.format(),
-            self.decoded.width(),
-            self.decoded.height(),
-        );
-        let stale = self.scaler.as_ref().is_none_or(|s| {
-            let i = s.0.input();
-            (i.format, i.width, i.height) != src
-        });
-        if stale {
-            // A stream can change size mid-clip; every frame still comes out at the first size.
-            let ctx = scaling::Context::get(
-                src.0,
-                src.1,
-                src.2,
-                Pixel::RGB24,
-                w,
-                h,
-                // Without ACCURATE_RND, same-size yuv420p → RGB takes swscale's SIMD fast path:
-                // about 1.4 ms less a 720p frame (2.5 vs 3.8 s of CPU for 900 frames).
-                scaling::Flags::BILINEAR,
-            )
-            .map_err(|e| {
-                self.decode_error(format!(
-                    "cannot convert {:?} {}x{} to RGB ({e})",
-                    src.0, src.1, src.2
-                ))
-            })?;
-            self.scaler = Some(Scaler(ctx));
-        }
-        let scaler = self.scaler.as_mut().expect("scaler set above");
-        if let Err(e) = scaler.0.run(&self.decoded, &mut self.rgb) {
-            return Err(self.decode_error(format!("cannot convert the frame to RGB ({e})")));
-        }
-        // Rows are padded to the stride (e.g. at odd widths): copy only the pixels.
-        let stride = self.rgb.stride(0);
-        let data = self.rgb.data(0);
-        let row = w as usize * 3;
-        let mut out = Vec::with_capacity(row * h as usize);
-        for y in 0..h as usize {
-            out.extend_from_slice(&data[y * stride..y * stride + row]);
-        }
-        Ok(RgbImage::from_raw(w, h, out).expect("buffer is width*height*3"))
+        self.to_rgb
+            .convert(&self.decoded)
+            .map_err(|msg| self.decode_error(msg))
     }
 
-    /// One frame after each of `n` seeks to evenly spaced timestamps, deduplicated by timestamp.
-    /// Returns fewer frames (possibly none) when the file cannot seek or has few keyframes; the
-    /// caller decides whether that is enough.
-    fn sample_by_seeking(&mut self, n: usize) -> Vec<RgbImage> {
+    /// The keyframe at or before each of `n` evenly spaced timestamps (the centres of `n` equal
+    /// slices of the stream's duration), found by seeking and reading the first video packet
+    /// there, without decoding. Returns one target (µs) per distinct keyframe, the first that
+    /// lands on it, in clip order: seeking to it again lands on that keyframe. Empty when the file
+    /// states no duration or cannot seek. A few milliseconds, however many targets share a
+    /// keyframe, so a clip with few keyframes costs nothing to rule out.
+    fn keyframe_targets(&mut self, n: usize) -> Vec<i64> {
         let Some((start_us, duration_us)) = self.time_span_us() else {
             return Vec::new();
         };
         let mut seen = HashSet::new();
-        let mut frames = Vec::new();
-        for i in 0..n as i64 {
+        let mut targets = Vec::new();
+        let mut packet = ff::Packet::empty();
+        'targets: for i in 0..n as i64 {
             let target = start_us + ((2 * i + 1) * duration_us) / (2 * n as i64);
             // The keyframe at or before the target.
+            if self.input.seek(target, ..target).is_err() {
+                break;
+            }
+            let landed = loop {
+                match packet.read(&mut self.input) {
+                    Ok(()) if packet.stream() == self.stream_index => {
+                        break packet.pts().or(packet.dts());
+                    }
+                    Ok(()) | Err(ff::Error::InvalidData) => {}
+                    Err(_) => continue 'targets,
+                }
+            };
+            // Without a timestamp there is nothing to compare: keep it, as decoding would.
+            if landed.is_none_or(|ts| seen.insert(ts)) {
+                targets.push(target);
+            }
+        }
+        targets
+    }
+
+    /// The first frame decoded after seeking to each of `targets` (µs), skipping a frame already
+    /// taken (same timestamp). Stops early, with what it has, on a seek or decode error: this is
+    /// only a sample, and the caller decides whether it is enough.
+    fn decode_at(&mut self, targets: &[i64]) -> Vec<RgbImage> {
+        let mut seen = HashSet::new();
+        let mut frames = Vec::new();
+        for &target in targets {
             if self.input.seek(target, ..target).is_err() {
                 break;
             }
@@ -265,6 +266,15 @@ impl FfmpegSource {
         frames
     }
 
+    /// One frame at the keyframe at or before each of `n` evenly spaced timestamps, distinct
+    /// keyframes only, in clip order. Fewer frames (possibly none) when the file cannot seek or
+    /// has few keyframes.
+    #[cfg(test)]
+    fn sample_by_seeking(&mut self, n: usize) -> Vec<RgbImage> {
+        let targets = self.keyframe_targets(n);
+        self.decode_at(&targets)
+    }
+
     /// The video stream's start and duration in microseconds, if the file states a duration.
     fn time_span_us(&self) -> Option<(i64, i64)> {
         let stream = self.input.stream(self.stream_index)?;
@@ -283,14 +293,17 @@ impl FfmpegSource {
 
     /// `n` frames spread over the clip from one sequential decode. Keeps every `stride`-th frame,
     /// doubling `stride` (and dropping every other kept frame) whenever `2n` are held, so memory
-    /// stays bounded whatever the clip's length; frames not kept are never converted to RGB.
+    /// stays bounded whatever the clip's length. Kept frames are the decoder's own (reference
+    /// counted, not copied); only the `n` chosen at the end are converted to RGB.
     fn sample_sequentially(&mut self, n: usize) -> Result<Vec<RgbImage>> {
-        let mut kept = Vec::new();
+        let mut kept: Vec<(u64, ff::frame::Video)> = Vec::new();
         let mut stride = 1u64;
         let mut index = 0u64;
         while self.decode_next()? {
             if index.is_multiple_of(stride) {
-                kept.push(self.convert()?);
+                // Take the frame; the next `receive_frame` fills a fresh one.
+                let frame = std::mem::replace(&mut self.decoded, ff::frame::Video::empty());
+                kept.push((index, frame));
                 if kept.len() >= 2 * n {
                     kept = kept.into_iter().step_by(2).collect();
                     stride *= 2;
@@ -299,11 +312,63 @@ impl FfmpegSource {
             index += 1;
             self.frames_out += 1;
         }
-        let mut slots: Vec<Option<RgbImage>> = kept.into_iter().map(Some).collect();
-        Ok(spread_indices(slots.len(), n)
-            .into_iter()
-            .filter_map(|i| slots[i].take())
-            .collect())
+        let mut frames = Vec::with_capacity(n);
+        for i in spread_indices(kept.len(), n) {
+            let (index, frame) = &kept[i];
+            frames.push(self.to_rgb.convert(frame).map_err(|msg| Error::Decode {
+                path: self.info.path.clone(),
+                frame: *index,
+                msg,
+            })?);
+        }
+        Ok(frames)
+    }
+}
+
+impl RgbConverter {
+    /// `frame` as an RGB image of the clip's size; the error says what could not be converted.
+    fn convert(&mut self, frame: &ff::frame::Video) -> std::result::Result<RgbImage, String> {
+        let (w, h) = (self.width, self.height);
+        let src = (frame.format(), frame.width(), frame.height());
+        let stale = self.scaler.as_ref().is_none_or(|s| {
+            let i = s.0.input();
+            (i.format, i.width, i.height) != src
+        });
+        if stale {
+            // A stream can change size mid-clip; every frame still comes out at the first size.
+            let ctx = scaling::Context::get(
+                src.0,
+                src.1,
+                src.2,
+                Pixel::RGB24,
+                w,
+                h,
+                // Without ACCURATE_RND, same-size yuv420p → RGB takes swscale's SIMD fast path:
+                // about 1.4 ms less a 720p frame (2.5 vs 3.8 s of CPU for 900 frames).
+                scaling::Flags::BILINEAR,
+            )
+            .map_err(|e| {
+                format!(
+                    "cannot convert {:?} {}x{} to RGB ({e})",
+                    src.0, src.1, src.2
+                )
+            })?;
+            self.scaler = Some(Scaler(ctx));
+        }
+        let scaler = self.scaler.as_mut().expect("scaler set above");
+        scaler
+            .0
+            .run(frame, &mut self.rgb)
+            .map_err(|e| format!("cannot convert the frame to RGB ({e})"))?;
+        // Rows are padded to the stride (e.g. at odd widths): copy only the pixels.
+        let stride = self.rgb.stride(0);
+        let data = self.rgb.data(0);
+        let row = w as usize * 3;
+        let mut out = Vec::with_capacity(row * h as usize);
+        for y in 0..h as usize {
+            out.extend_from_slice(&data[y * stride..y * stride + row]);
+        }
+        Ok(RgbImage::from_raw(w, h, out).expect("buffer is width*height*3"))
     }
 }
 
@@ -322,17 +387,24 @@ impl FrameSource for FfmpegSource {
     }
 }
 
-/// Up to `n` frames spread over the video at `path`: by seeking if that finds at least `n / 2`
-/// distinct frames, else by one sequential decode (see [`super::sample_frames`]).
+/// Up to `n` frames spread over the video at `path`: the keyframes at or before `n` evenly
+/// spaced timestamps if at least `n / 2` are distinct, else one sequential decode (see
+/// [`super::sample_frames`]). Which way is decided by demuxing alone, so a clip with few
+/// keyframes is decoded once, not once per seek and then again.
 pub(super) fn sample(path: &Path, n: usize) -> Result<Vec<RgbImage>> {
     if n == 0 {
         return Ok(Vec::new());
     }
-    let sampled = FfmpegSource::open(path, None)?.sample_by_seeking(n);
-    if sampled.len() * 2 >= n {
-        return Ok(sampled);
+    let mut source = FfmpegSource::open(path, None)?;
+    let targets = source.keyframe_targets(n);
+    if targets.len() * 2 >= n {
+        let sampled = source.decode_at(&targets);
+        if sampled.len() * 2 >= n {
+            return Ok(sampled);
+        }
     }
-    drop(sampled);
+    drop(source);
+    // A fresh decoder from the start: the same frames, in the same order, as `track` gets.
     FfmpegSource::open(path, None)?.sample_sequentially(n)
 }
 
@@ -511,8 +583,9 @@ mod tests {
             .map(index_of)
             .collect();
         assert_eq!(got, [0, 10, 15, 25, 30, 40, 45, 55]);
-        // Asking for more than there are keyframes: duplicates are dropped.
+        // Asking for more than there are keyframes: duplicates are dropped, by demuxing alone.
         let mut source = FfmpegSource::open(&gop5, None).unwrap();
+        assert_eq!(source.keyframe_targets(30).len(), 12);
         let got: Vec<_> = source.sample_by_seeking(30).iter().map(index_of).collect();
         assert_eq!(got, (0..60).step_by(5).collect::<Vec<_>>());
     }
@@ -522,13 +595,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("one_gop.mp4");
         write_video(&path, &numbered(30), "mpeg4", Pixel::YUV420P, 300);
-        assert!(
-            FfmpegSource::open(&path, None)
-                .unwrap()
-                .sample_by_seeking(10)
-                .len()
-                < 5
-        );
+        // Every target lands on the one keyframe: known from demuxing, before decoding anything.
+        let mut source = FfmpegSource::open(&path, None).unwrap();
+        assert_eq!(source.keyframe_targets(10).len(), 1);
+        assert_eq!(source.sample_by_seeking(10).len(), 1);
         let got: Vec<_> = sample_frames(&path, 10)
             .unwrap()
             .iter()
@@ -536,6 +606,8 @@ mod tests {
             .collect();
         // Frames 0, 2, …, 28 kept (stride doubled once at 20), then 10 of those 15 spread evenly.
         assert_eq!(got, [0, 4, 6, 10, 12, 16, 18, 22, 24, 28]);
+        // Deterministic: the same frames, bit for bit, every time.
+        assert!(sample_frames(&path, 10).unwrap() == sample_frames(&path, 10).unwrap());
         // More than the clip has: all of it.
         assert_eq!(sample_frames(&path, 100).unwrap().len(), 30);
         assert!(sample_frames(&path, 0).unwrap().is_empty());

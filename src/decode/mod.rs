@@ -103,10 +103,13 @@ fn no_ffmpeg(path: &Path) -> Error {
 /// Up to `n` frames spread evenly across the clip, for the background model (temporal median).
 ///
 /// Much cheaper than a full decode on long videos: FFmpeg seeks to `n` evenly spaced timestamps
-/// and takes the first frame decoded after each (distinct timestamps only); if that gives fewer
-/// than `n / 2` frames (short clip, few keyframes) it falls back to one sequential decode that
-/// keeps an evenly thinned subset (never more than `2n` frames in memory). Image folders read
-/// the `n` chosen files directly. Frames come back in clip order.
+/// and reads (demuxing only, no decoding) which keyframe each lands on; if at least `n / 2` are
+/// distinct, it decodes just those keyframes. Otherwise (short clip, few keyframes: x264 puts one
+/// every 250 frames) a spread sample needs nearly every frame decoded anyway, since each depends
+/// on those before it back to its keyframe, so it makes one sequential decode that keeps an
+/// evenly thinned subset (never more than `2n` decoded frames in memory, only the `n` chosen
+/// converted to RGB). Either way the same clip gives the same frames. Image folders read the `n`
+/// chosen files directly. Frames come back in clip order.
 pub fn sample_frames(path: &Path, n: usize) -> Result<Vec<RgbImage>> {
     let meta = clip_metadata(path)?;
     if meta.is_dir() {
