@@ -167,6 +167,38 @@ mod video {
         assert!(decode::sample_frames(&clip, 5).unwrap() == sample);
     }
 
+    /// FFmpeg's own log lines (`[mov,mp4,... @ 0x…] moov atom not found`) stay off stderr; the
+    /// user gets our one message naming the file and what failed.
+    #[test]
+    fn ffmpeg_log_lines_do_not_reach_the_user() {
+        let dir = tempfile::tempdir().unwrap();
+        let seeds = Path::new(env!("CARGO_MANIFEST_DIR")).join("clips/walk/joints.toml");
+        let bogus = dir.path().join("notes.mp4");
+        std::fs::write(&bogus, "this is not a video\n").unwrap();
+        // The start of a real clip: its index (moov) is at the end, so it is cut off.
+        let cut = dir.path().join("cut.mp4");
+        let clip = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("clips/walk/clip.mp4"))
+            .unwrap();
+        std::fs::write(&cut, &clip[..clip.len() / 2]).unwrap();
+        for path in [&bogus, &cut] {
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+                .args(["track", path.to_str().unwrap(), "--seeds"])
+                .arg(&seeds)
+                .arg("--quiet")
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{stderr}");
+            assert_eq!(stderr.lines().count(), 1, "{stderr}");
+            assert!(
+                stderr.starts_with("mocap2d: ")
+                    && stderr.contains(path.to_str().unwrap())
+                    && stderr.contains("not a video FFmpeg can decode"),
+                "{stderr}"
+            );
+        }
+    }
+
     #[test]
     fn text_file_named_mp4_is_a_clip_error() {
         let dir = tempfile::tempdir().unwrap();

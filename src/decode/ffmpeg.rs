@@ -16,13 +16,19 @@ const NO_PTS: i64 = i64::MIN;
 /// The unit of `avformat_seek_file` with no stream (`AV_TIME_BASE`): microseconds.
 const MICROSECONDS: Rational = Rational(1, 1_000_000);
 
-/// Initialises FFmpeg once per process and turns its logging down to errors.
+/// FFmpeg's own log level. Its error lines (`[h264 @ 0x…] mmco: unref short failure` after a
+/// seek, `moov atom not found`, concealed damage) go straight to stderr, unprefixed by us and
+/// mostly harmless; what matters reaches the user as our error, which names the file and quotes
+/// FFmpeg's error code. Fatal still lets through FFmpeg's last words before it aborts.
+const FFMPEG_LOG_LEVEL: ff::util::log::Level = ff::util::log::Level::Fatal;
+
+/// Initialises FFmpeg once per process and silences its logging (see [`FFMPEG_LOG_LEVEL`]).
 pub(crate) fn init() {
     static INIT: std::sync::Once = std::sync::Once::new();
     INIT.call_once(|| {
         // Only registers codecs on FFmpeg < 5; it cannot fail in a way worth reporting.
         let _ = ff::init();
-        ff::util::log::set_level(ff::util::log::Level::Error);
+        ff::util::log::set_level(FFMPEG_LOG_LEVEL);
     });
 }
 
@@ -629,6 +635,18 @@ mod tests {
         assert!(source.next_frame().unwrap().is_none());
         assert!(source.next_frame().unwrap().is_none());
         assert_eq!(open(&path, Some(12.5)).unwrap().info().fps, 12.5);
+    }
+
+    #[test]
+    fn ffmpeg_logging_is_silenced_once_opened() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("notes.mp4");
+        std::fs::write(&path, "this is not a video\n").unwrap();
+        assert!(FfmpegSource::open(&path, None).is_err());
+        assert!(matches!(
+            ff::util::log::get_level(),
+            Ok(ff::util::log::Level::Fatal)
+        ));
     }
 
     #[test]
