@@ -1,10 +1,11 @@
-//! Throughput of each stage of `mocap2d track` on one clip, against FFmpeg's own decode.
+//! Throughput of each stage of `mocap2d track` on one or more clips, against FFmpeg's own decode.
 //!
-//!     cargo run --release --example bench -- CLIP_DIR [--reps 3] [--bin target/release/mocap2d]
+//!     cargo run --release --example bench -- CLIP_DIR... [--reps 3] [--bin target/release/mocap2d]
 //!
-//! CLIP_DIR holds `clip.mp4` and `joints.toml` (as `mocap2d synth` writes them). Every stage runs
-//! `--reps` times; prints a markdown table of the median frames/s, its ratio to our decode and to
-//! the `ffmpeg` CLI, and the peak RSS. `scripts/bench` renders the clips and runs this.
+//! Each CLIP_DIR holds `clip.mp4` and `joints.toml` (as `mocap2d synth` writes them). Every stage
+//! runs `--reps` times; prints one markdown table, a row per clip and stage, of the median
+//! frames/s, its ratio to our decode of that clip and to the `ffmpeg` CLI, and the peak RSS.
+//! `scripts/bench` renders the clips (640x360 and 1280x720) and runs this.
 //!
 //! Peak RSS of in-process stages is VmHWM from /proc/self/status, reset before each stage by
 //! writing 5 to /proc/self/clear_refs (if the kernel refuses, it is cumulative: marked "≤").
@@ -23,6 +24,8 @@ use std::time::Instant;
 
 const GNU_TIME: &str = "/usr/bin/time";
 
+const USAGE: &str = "usage: bench CLIP_DIR... [--reps N] [--bin PATH]";
+
 struct Row {
     stage: &'static str,
     fps: f64,
@@ -31,18 +34,32 @@ struct Row {
     what: String,
 }
 
+/// One clip's rows and what the ratios are taken against.
+struct ClipBench {
+    dir: PathBuf,
+    width: u32,
+    height: u32,
+    frames: u64,
+    joints: usize,
+    decode_fps: f64,
+    cli_fps: f64,
+    rows: Vec<Row>,
+}
+
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
-    let (mut dir, mut reps, mut bin) = (None, 3, None);
+    let (mut dirs, mut reps, mut bin) = (Vec::new(), 3, None);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--reps" => reps = args.next().context("--reps N")?.parse()?,
             "--bin" => bin = Some(PathBuf::from(args.next().context("--bin PATH")?)),
-            _ if dir.is_none() && !a.starts_with('-') => dir = Some(PathBuf::from(a)),
-            _ => bail!("usage: bench CLIP_DIR [--reps N] [--bin PATH]"),
+            _ if !a.starts_with('-') => dirs.push(PathBuf::from(a)),
+            _ => bail!(USAGE),
         }
     }
-    let dir = dir.context("usage: bench CLIP_DIR [--reps N] [--bin PATH]")?;
+    if dirs.is_empty() || reps == 0 {
+        bail!(USAGE);
+    }
     // target/release/examples/bench -> target/release/mocap2d
     let bin = bin.unwrap_or_else(|| {
         let exe = std::env::current_exe().unwrap_or_default();
@@ -51,12 +68,84 @@ fn main() -> Result<()> {
             .unwrap_or(Path::new("."))
             .join("mocap2d")
     });
+    let resettable = reset_peak();
+    let mut notes = Vec::new();
+    let mut clips = Vec::new();
+    for dir in &dirs {
+        clips.push(bench_clip(dir, reps, &bin, &mut notes)?);
+    }
+
+    println!("### Throughput per stage (frames/s: median of {reps} runs)\n");
+    for c in &clips {
+        println!(
+            "- {}x{}: `{}`, {} frames, {} joints",
+            c.width,
+            c.height,
+            c.dir.display(),
+            c.frames,
+            c.joints
+        );
+    }
+    println!();
+    println!("| size | stage | frames/s | × decode | × ffmpeg CLI | peak RSS |");
+    println!("|---|---|---:|---:|---:|---:|");
+    for c in &clips {
+        for r in &c.rows {
+            println!(
+                "| {}x{} | {} | {:.1} | {:.2} | {:.2} | {} |",
+                c.width,
+                c.height,
+                r.stage,
+                r.fps,
+                r.fps / c.decode_fps,
+                r.fps / c.cli_fps,
+                r.rss
+            );
+        }
+    }
+    println!();
+    // What each stage times: the same for every clip, apart from the background's milliseconds.
+    for (i, r) in clips[0].rows.iter().enumerate() {
+        let what = if r.stage == "background" {
+            let ms: Vec<String> = clips
+                .iter()
+                .map(|c| {
+                    let fps = c.rows[i].fps;
+                    format!(
+                        "{:.0} ms at {}x{}",
+                        1000.0 * c.frames as f64 / fps,
+                        c.width,
+                        c.height
+                    )
+                })
+                .collect();
+            format!("{} ({})", r.what, ms.join(", "))
+        } else {
+            r.what.clone()
+        };
+        println!("- **{}**: {what}", r.stage);
+    }
+    if !resettable {
+        notes.push("/proc/self/clear_refs refused: in-process peak RSS is cumulative over the stages above it".into());
+    }
+    if !Path::new(GNU_TIME).is_file() {
+        notes.push(format!(
+            "{GNU_TIME} missing (apt package `time`): no peak RSS for child processes"
+        ));
+    }
+    for n in notes {
+        println!("\n_{n}_");
+    }
+    println!();
+    Ok(())
+}
+
+/// Runs every stage on the clip folder `dir`; `notes` collects what the table cannot show.
+fn bench_clip(dir: &Path, reps: usize, bin: &Path, notes: &mut Vec<String>) -> Result<ClipBench> {
     let clip = dir.join("clip.mp4");
     let seeds_path = dir.join("joints.toml");
     let (seeds, _) = read_seeds(&seeds_path)?;
-    let resettable = reset_peak();
     let mut rows = Vec::new();
-    let mut notes = Vec::new();
 
     // decode: FFmpeg (ffmpeg-next) decode + conversion to RGB, nothing else.
     let mut frames = 0u64;
@@ -104,8 +193,7 @@ fn main() -> Result<()> {
         fps,
         rss,
         what: format!(
-            "`sample_frames({BACKGROUND_SAMPLES})` + `Background::fit`: {:.0} ms (as frames/s over the clip)",
-            1000.0 * frames as f64 / fps
+            "`sample_frames({BACKGROUND_SAMPLES})` + `Background::fit`, as frames/s over the clip"
         ),
     });
 
@@ -150,10 +238,10 @@ fn main() -> Result<()> {
             what: "`mocap2d track` as a child process, wall clock incl. start-up".into(),
         });
     } else {
-        notes.push(format!(
-            "{}: not built, so no `track (binary)` row",
-            bin.display()
-        ));
+        let note = format!("{}: not built, so no `track (binary)` row", bin.display());
+        if !notes.contains(&note) {
+            notes.push(note);
+        }
     }
 
     // track-only: the tracker over frames already decoded into memory.
@@ -186,39 +274,16 @@ fn main() -> Result<()> {
         what: "`app::track_frames` over decoded frames in memory (RSS holds the clip twice)".into(),
     });
 
-    println!(
-        "### {}: {}x{}, {frames} frames, {} joints\n",
-        dir.display(),
-        info.width,
-        info.height,
-        seeds.joints.len()
-    );
-    println!("| stage | frames/s (median of {reps}) | × decode | × ffmpeg CLI | peak RSS | what is timed |");
-    println!("|---|---:|---:|---:|---:|---|");
-    for r in &rows {
-        println!(
-            "| {} | {:.1} | {:.2} | {:.2} | {} | {} |",
-            r.stage,
-            r.fps,
-            r.fps / decode_fps,
-            r.fps / cli_fps,
-            r.rss,
-            r.what
-        );
-    }
-    if !resettable {
-        notes.push("/proc/self/clear_refs refused: in-process peak RSS is cumulative over the stages above it".into());
-    }
-    if !Path::new(GNU_TIME).is_file() {
-        notes.push(format!(
-            "{GNU_TIME} missing (apt package `time`): no peak RSS for child processes"
-        ));
-    }
-    for n in notes {
-        println!("\n_{n}_");
-    }
-    println!();
-    Ok(())
+    Ok(ClipBench {
+        dir: dir.to_owned(),
+        width: info.width,
+        height: info.height,
+        frames,
+        joints: seeds.joints.len(),
+        decode_fps,
+        cli_fps,
+        rows,
+    })
 }
 
 /// Runs `f` (which returns frames done and seconds timed) `reps` times; median frames/s and the
