@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::run::{hash_clip, ClipId, Manifest, TracksWriter};
 use crate::seed::{read_seeds, Seeds};
-use crate::track::{JointEstimate, TrackParams, Tracker};
+use crate::track::{gapfill::GapFiller, JointEstimate, TrackParams, Tracker};
 use image::RgbImage;
 use std::path::{Path, PathBuf};
 
@@ -99,7 +99,7 @@ pub fn track_frames(
     progress: &dyn Progress,
     mut sink: impl FnMut(u64, &[JointEstimate]) -> Result<()>,
 ) -> Result<u64> {
-    let mut tracker: Option<Tracker> = None;
+    let mut tracker: Option<(Tracker, GapFiller)> = None;
     let mut background = background;
     let mut count = 0;
     for item in frames {
@@ -111,19 +111,26 @@ pub fn track_frames(
             }
             continue;
         }
-        match tracker.as_mut() {
+        let done = match tracker.as_mut() {
             None => {
                 let t = Tracker::new(params.clone(), seeds, &frame, background.take());
-                sink(idx, &t.current())?;
-                tracker = Some(t);
+                let mut g = t.gap_filler();
+                let done = g.push(idx, t.current());
+                tracker = Some((t, g));
+                done
             }
-            Some(t) => {
-                let est = t.step(&frame);
-                sink(idx, &est)?;
-            }
+            Some((t, g)) => g.push(idx, t.step(&frame)),
+        };
+        for (i, est) in done {
+            sink(i, &est)?;
         }
         if !progress.advance(1) {
             return Err(Error::Interrupted);
+        }
+    }
+    if let Some((_, g)) = tracker.as_mut() {
+        for (i, est) in g.finish() {
+            sink(i, &est)?;
         }
     }
     Ok(count)

@@ -66,6 +66,13 @@ impl Background {
         })
     }
 
+    /// Per-channel noise standard deviation (levels) implied by the foreground threshold: the
+    /// threshold is 4× the median L1 deviation over three channels, and for Gaussian noise of
+    /// σ per channel that median is about 2.2 σ.
+    pub fn noise_sigma(&self) -> f32 {
+        self.threshold as f32 / (4.0 * 2.2)
+    }
+
     /// A background from a user-supplied clean plate (PNG/JPEG) of the clip's frame size.
     pub fn from_plate_file(path: &Path, width: u32, height: u32) -> Result<Background> {
         let img = image::open(path)

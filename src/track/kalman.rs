@@ -1,8 +1,11 @@
-//! Constant-acceleration Kalman filter for one joint centre (METHOD.md eq. 4.3–4.4, with the
-//! update step). State per axis `(p, p', p'')` in px, px/frame, px/frame²; Δt = 1 frame.
-//! Both axes share one model, so they share one 3×3 covariance.
+//! Constant-acceleration Kalman filters (METHOD.md eq. 4.3–4.4, with the update step).
+//!
+//! [`Ca`] filters one scalar signal with state `(s, s', s'')` per frame (Δt = 1 frame): a root
+//! joint's x or y (px, px/frame, px/frame²), or a bone's direction (rad) or log length. [`Kalman`]
+//! pairs two of them for a position. The process noise is a random jerk of `jerk_sigma` units
+//! per frame³.
 
-use crate::geom::Point;
+use crate::geom::{Point, Vector};
 use nalgebra::{Matrix3, Vector3};
 
 /// Transition matrix F = [[1, Δt, Δt²/2], [0, 1, Δt], [0, 0, 1]] with Δt = 1 frame (eq. 4.3).
@@ -10,108 +13,162 @@ fn transition() -> Matrix3<f32> {
     Matrix3::new(1.0, 1.0, 0.5, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0)
 }
 
-/// Process noise Q = σ_j² G Gᵀ with G = (Δt³/6, Δt²/2, Δt): a random jerk of σ_j px/frame³.
+/// Process noise Q = σ_j² G Gᵀ with G = (Δt³/6, Δt²/2, Δt): a random jerk of σ_j per frame³.
 fn process_noise(jerk_sigma: f32) -> Matrix3<f32> {
     let g = Vector3::new(1.0 / 6.0, 0.5, 1.0);
     g * g.transpose() * (jerk_sigma * jerk_sigma)
 }
 
-/// Filter state of one joint.
-#[derive(Debug, Clone)]
-pub struct Kalman {
-    /// x-axis state (px, px/frame, px/frame²).
-    pub sx: Vector3<f32>,
-    /// y-axis state.
-    pub sy: Vector3<f32>,
-    /// Covariance, shared by both axes.
+/// A constant-acceleration filter of one scalar signal.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ca {
+    /// State: value, rate (per frame), acceleration (per frame²).
+    pub s: Vector3<f32>,
+    /// State covariance.
     pub cov: Matrix3<f32>,
     q: Matrix3<f32>,
 }
 
-impl Kalman {
-    /// Starts at `p` at rest, with `speed_sigma` px/frame and `accel_sigma` px/frame² of prior
-    /// uncertainty, and a random jerk of `jerk_sigma` px/frame³ per frame.
-    pub fn new(p: Point, speed_sigma: f32, accel_sigma: f32, jerk_sigma: f32) -> Self {
-        Kalman {
-            sx: Vector3::new(p.x, 0.0, 0.0),
-            sy: Vector3::new(p.y, 0.0, 0.0),
+impl Ca {
+    /// Starts at `value`, at rest, with standard deviations `value_sigma`, `rate_sigma`
+    /// (per frame) and `accel_sigma` (per frame²), and a random jerk of `jerk_sigma` per frame³.
+    pub fn new(
+        value: f32,
+        value_sigma: f32,
+        rate_sigma: f32,
+        accel_sigma: f32,
+        jerk_sigma: f32,
+    ) -> Self {
+        Ca {
+            s: Vector3::new(value, 0.0, 0.0),
             cov: Matrix3::from_diagonal(&Vector3::new(
-                0.25,
-                speed_sigma * speed_sigma,
+                value_sigma * value_sigma,
+                rate_sigma * rate_sigma,
                 accel_sigma * accel_sigma,
             )),
             q: process_noise(jerk_sigma),
         }
     }
 
-    /// The current position estimate (px).
-    pub fn position(&self) -> Point {
-        Point::new(self.sx[0], self.sy[0])
+    /// The current value.
+    pub fn value(&self) -> f32 {
+        self.s[0]
     }
 
-    /// The current velocity estimate (px/frame).
-    pub fn velocity(&self) -> crate::geom::Vector {
-        crate::geom::Vector::new(self.sx[1], self.sy[1])
+    /// The current rate (per frame).
+    pub fn rate(&self) -> f32 {
+        self.s[1]
     }
 
-    /// Predict step: S ← F S, P ← F P Fᵀ + Q (eq. 4.3). Returns the predicted position.
-    pub fn predict(&mut self) -> Point {
-        let f = transition();
-        self.sx = f * self.sx;
-        self.sy = f * self.sy;
-        self.cov = f * self.cov * f.transpose() + self.q;
-        self.position()
-    }
-
-    /// Positional standard deviation (px) of the current estimate, per axis.
-    pub fn position_sigma(&self) -> f32 {
+    /// Standard deviation of the current value.
+    pub fn sigma(&self) -> f32 {
         self.cov[(0, 0)].max(0.0).sqrt()
     }
 
-    /// Update step with a measured position `z` of variance `meas_var` px² per axis (eq. 4.4).
-    pub fn update(&mut self, z: Point, meas_var: f32) {
-        let s = self.cov[(0, 0)] + meas_var;
-        let k = self.cov.column(0) / s;
-        self.sx += k * (z.x - self.sx[0]);
-        self.sy += k * (z.y - self.sy[0]);
-        // Joseph-free form is fine here: P ← (I − K H) P, kept symmetric.
+    /// Predict step: S ← F S, P ← F P Fᵀ + Q (eq. 4.3). Returns the predicted value.
+    pub fn predict(&mut self) -> f32 {
+        let f = transition();
+        self.s = f * self.s;
+        self.cov = f * self.cov * f.transpose() + self.q;
+        self.s[0]
+    }
+
+    /// Update step with a measured value `z` of variance `var` (eq. 4.4).
+    pub fn update(&mut self, z: f32, var: f32) {
+        let k = self.cov.column(0) / (self.cov[(0, 0)] + var);
+        self.s += k * (z - self.s[0]);
         let kh = Matrix3::from_columns(&[k, Vector3::zeros(), Vector3::zeros()]);
         self.cov = (Matrix3::identity() - kh) * self.cov;
         self.cov = (self.cov + self.cov.transpose()) * 0.5;
     }
 
-    /// Restarts the filter at `p` moving at `v` (px/frame) with no acceleration, with positional
-    /// and speed standard deviations `pos_sigma` (px) and `speed_sigma` (px/frame). Used when a
-    /// hidden joint is placed from the skeleton rather than measured.
-    pub fn reset(&mut self, p: Point, v: crate::geom::Vector, pos_sigma: f32, speed_sigma: f32) {
-        self.sx = Vector3::new(p.x, v.x, 0.0);
-        self.sy = Vector3::new(p.y, v.y, 0.0);
-        let a = speed_sigma / 2.0;
-        self.cov = Matrix3::from_diagonal(&Vector3::new(
-            pos_sigma * pos_sigma,
-            speed_sigma * speed_sigma,
-            a * a,
-        ));
+    /// Keeps the value, scales the rate by `rate_keep` and the acceleration by `accel_keep`
+    /// (while a signal is unobserved, so the prediction does not run off on a stale rate).
+    pub fn damp(&mut self, rate_keep: f32, accel_keep: f32) {
+        self.s[1] *= rate_keep;
+        self.s[2] *= accel_keep;
     }
 
-    /// Keeps the position inside `[lo, hi]` per axis (px), stopping motion along a clamped axis.
-    pub fn clamp_to(&mut self, lo: Point, hi: Point) {
-        for (s, l, h) in [(&mut self.sx, lo.x, hi.x), (&mut self.sy, lo.y, hi.y)] {
-            if s[0] < l || s[0] > h {
-                s[0] = s[0].clamp(l, h);
-                s[1] = 0.0;
-                s[2] = 0.0;
-            }
+    /// Keeps the value within `[lo, hi]`; a clamped value stops (rate and acceleration 0).
+    pub fn clamp(&mut self, lo: f32, hi: f32) {
+        if self.s[0] < lo || self.s[0] > hi {
+            self.s[0] = self.s[0].clamp(lo, hi);
+            self.s[1] = 0.0;
+            self.s[2] = 0.0;
         }
     }
 
-    /// Damps velocity and acceleration (used while a joint is hidden so the prediction does not
-    /// fly off along a stale velocity).
-    pub fn damp(&mut self, velocity_keep: f32, accel_keep: f32) {
-        self.sx[1] *= velocity_keep;
-        self.sy[1] *= velocity_keep;
-        self.sx[2] *= accel_keep;
-        self.sy[2] *= accel_keep;
+    /// Restarts at `value` with rate `rate`, no acceleration, and standard deviations
+    /// `value_sigma` and `rate_sigma`.
+    pub fn reset(&mut self, value: f32, rate: f32, value_sigma: f32, rate_sigma: f32) {
+        self.s = Vector3::new(value, rate, 0.0);
+        self.cov = Matrix3::from_diagonal(&Vector3::new(
+            value_sigma * value_sigma,
+            rate_sigma * rate_sigma,
+            0.25 * rate_sigma * rate_sigma,
+        ));
+    }
+}
+
+/// A constant-acceleration filter of a position (px): one [`Ca`] per axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Kalman {
+    pub x: Ca,
+    pub y: Ca,
+}
+
+impl Kalman {
+    /// Starts at `p` at rest, with `speed_sigma` px/frame and `accel_sigma` px/frame² of prior
+    /// uncertainty and a random jerk of `jerk_sigma` px/frame³.
+    pub fn new(p: Point, speed_sigma: f32, accel_sigma: f32, jerk_sigma: f32) -> Self {
+        Kalman {
+            x: Ca::new(p.x, 0.5, speed_sigma, accel_sigma, jerk_sigma),
+            y: Ca::new(p.y, 0.5, speed_sigma, accel_sigma, jerk_sigma),
+        }
+    }
+
+    /// The current position estimate (px).
+    pub fn position(&self) -> Point {
+        Point::new(self.x.value(), self.y.value())
+    }
+
+    /// The current velocity estimate (px/frame).
+    pub fn velocity(&self) -> Vector {
+        Vector::new(self.x.rate(), self.y.rate())
+    }
+
+    /// Predict step (eq. 4.3). Returns the predicted position.
+    pub fn predict(&mut self) -> Point {
+        Point::new(self.x.predict(), self.y.predict())
+    }
+
+    /// Positional standard deviation (px): the larger of the two axes.
+    pub fn position_sigma(&self) -> f32 {
+        self.x.sigma().max(self.y.sigma())
+    }
+
+    /// Update step with a measured position `z` of variance `var` px² per axis (eq. 4.4).
+    pub fn update(&mut self, z: Point, var: f32) {
+        self.x.update(z.x, var);
+        self.y.update(z.y, var);
+    }
+
+    /// See [`Ca::damp`].
+    pub fn damp(&mut self, rate_keep: f32, accel_keep: f32) {
+        self.x.damp(rate_keep, accel_keep);
+        self.y.damp(rate_keep, accel_keep);
+    }
+
+    /// Keeps the position within `[lo, hi]` per axis (see [`Ca::clamp`]).
+    pub fn clamp(&mut self, lo: Point, hi: Point) {
+        self.x.clamp(lo.x, hi.x);
+        self.y.clamp(lo.y, hi.y);
+    }
+
+    /// Restarts at `p` moving at `v` px/frame (see [`Ca::reset`]).
+    pub fn reset(&mut self, p: Point, v: Vector, pos_sigma: f32, speed_sigma: f32) {
+        self.x.reset(p.x, v.x, pos_sigma, speed_sigma);
+        self.y.reset(p.y, v.y, pos_sigma, speed_sigma);
     }
 }
 
@@ -142,5 +199,18 @@ mod tests {
         k.predict();
         k.predict();
         assert!(k.position_sigma() > s1);
+    }
+
+    #[test]
+    fn damping_stops_a_coasting_signal() {
+        let mut c = Ca::new(0.0, 0.1, 1.0, 1.0, 0.01);
+        for t in 1..10 {
+            c.predict();
+            c.update(t as f32, 1e-4);
+        }
+        assert!((c.rate() - 1.0).abs() < 0.05, "{}", c.rate());
+        c.damp(0.0, 0.0);
+        let v = c.value();
+        assert!((c.predict() - v).abs() < 1e-6);
     }
 }

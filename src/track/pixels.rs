@@ -1,0 +1,263 @@
+//! Reading a frame at sub-pixel positions: bilinear colour and its gradient (METHOD.md eq. 4.2's
+//! bilinear resampling), the only way the tracker looks at pixels.
+//!
+//! Positions follow [`crate::geom`]'s conventions: px, origin top-left, pixel centres on integer
+//! coordinates. A position whose 2×2 neighbourhood leaves the frame reads as `None`.
+
+use image::RgbImage;
+
+/// An RGB colour or colour derivative, 0–255 per channel, as `f32`.
+pub type Rgb = [f32; 3];
+
+/// Pyramid levels the tracker uses: full resolution, half and quarter.
+pub const LEVELS: usize = 3;
+
+/// A borrowed RGB frame.
+#[derive(Clone, Copy)]
+pub struct Image<'a> {
+    raw: &'a [u8],
+    w: usize,
+    h: usize,
+}
+
+impl<'a> Image<'a> {
+    /// Borrows `img`.
+    pub fn new(img: &'a RgbImage) -> Self {
+        Image {
+            raw: img.as_raw(),
+            w: img.width() as usize,
+            h: img.height() as usize,
+        }
+    }
+
+    /// Frame width (px).
+    pub fn width(&self) -> usize {
+        self.w
+    }
+
+    /// Frame height (px).
+    pub fn height(&self) -> usize {
+        self.h
+    }
+
+    /// Index of the top-left pixel of the 2×2 neighbourhood of `(x, y)` and the fractions
+    /// `(fx, fy)`, or `None` outside the frame.
+    #[inline(always)]
+    fn cell(&self, x: f32, y: f32) -> Option<(usize, f32, f32)> {
+        // Also rejects NaN: every comparison with NaN is false.
+        if !(x >= 0.0 && y >= 0.0) {
+            return None;
+        }
+        let (x0, y0) = (x as usize, y as usize);
+        if x0 + 1 >= self.w || y0 + 1 >= self.h {
+            return None;
+        }
+        Some(((y0 * self.w + x0) * 3, x - x0 as f32, y - y0 as f32))
+    }
+
+    /// Bilinear colour at `(x, y)` px.
+    #[inline(always)]
+    pub fn bilinear(&self, x: f32, y: f32) -> Option<Rgb> {
+        let (i, fx, fy) = self.cell(x, y)?;
+        let r = self.raw;
+        let j = i + 3 * self.w;
+        let mut out = [0.0; 3];
+        for (k, o) in out.iter_mut().enumerate() {
+            let (a, b) = (r[i + k] as f32, r[i + 3 + k] as f32);
+            let (c, d) = (r[j + k] as f32, r[j + 3 + k] as f32);
+            let top = a + (b - a) * fx;
+            let bot = c + (d - c) * fx;
+            *o = top + (bot - top) * fy;
+        }
+        Some(out)
+    }
+
+    /// Bilinear colour at `(x, y)` px and its derivatives along x and y (levels/px), as central
+    /// differences of bilinear reads half a pixel either side: continuous in the position, unlike
+    /// the gradient of the bilinear interpolant itself, which jumps at every pixel boundary.
+    #[inline(always)]
+    pub fn bilinear_grad(&self, x: f32, y: f32) -> Option<(Rgb, Rgb, Rgb)> {
+        let v = self.bilinear(x, y)?;
+        let (l, r) = (self.bilinear(x - 0.5, y)?, self.bilinear(x + 0.5, y)?);
+        let (u, d) = (self.bilinear(x, y - 0.5)?, self.bilinear(x, y + 0.5)?);
+        Some((
+            v,
+            [r[0] - l[0], r[1] - l[1], r[2] - l[2]],
+            [d[0] - u[0], d[1] - u[1], d[2] - u[2]],
+        ))
+    }
+}
+
+/// An image pyramid of a frame: level 0 is the frame, each next level halves both sides by
+/// averaging 2×2 blocks (a box blur, so coarse levels see the shape of a limb rather than its
+/// fine texture, and a match there tolerates misplacement by several pixels).
+///
+/// Level `k` pixel `x_k` covers full-resolution pixels `2^k·x_k … 2^k·x_k + 2^k − 1`, so a
+/// full-resolution position `x` (px) is `x_k = (x − (2^k − 1)/2) / 2^k` there ([`Level`]).
+pub struct Pyramid<'a> {
+    base: Image<'a>,
+    coarse: Vec<image::RgbImage>,
+}
+
+/// Halves an RGB buffer `w × h` by averaging 2×2 blocks (odd edges dropped).
+fn halve(raw: &[u8], w: usize, h: usize) -> image::RgbImage {
+    let (w2, h2) = ((w / 2).max(1), (h / 2).max(1));
+    let mut out = vec![0u8; w2 * h2 * 3];
+    if w >= 2 && h >= 2 {
+        for y in 0..h2 {
+            let r0 = &raw[(2 * y) * w * 3..(2 * y + 1) * w * 3];
+            let r1 = &raw[(2 * y + 1) * w * 3..(2 * y + 2) * w * 3];
+            let o = &mut out[y * w2 * 3..(y + 1) * w2 * 3];
+            for x in 0..w2 {
+                for k in 0..3 {
+                    let i = 6 * x + k;
+                    let sum = r0[i] as u16 + r0[i + 3] as u16 + r1[i] as u16 + r1[i + 3] as u16;
+                    o[3 * x + k] = ((sum + 2) / 4) as u8;
+                }
+            }
+        }
+    }
+    image::RgbImage::from_raw(w2 as u32, h2 as u32, out).expect("buffer sized to the image")
+}
+
+impl<'a> Pyramid<'a> {
+    /// The pyramid of `img` with `levels` levels (at least 1; level 0 is `img` itself).
+    pub fn new(img: &'a RgbImage, levels: usize) -> Self {
+        let base = Image::new(img);
+        let mut coarse: Vec<image::RgbImage> = Vec::with_capacity(levels.saturating_sub(1));
+        for k in 1..levels.max(1) {
+            let next = match coarse.last() {
+                None => halve(base.raw, base.w, base.h),
+                Some(prev) => halve(prev.as_raw(), prev.width() as usize, prev.height() as usize),
+            };
+            let _ = k;
+            coarse.push(next);
+        }
+        Pyramid { base, coarse }
+    }
+
+    /// Number of levels.
+    pub fn levels(&self) -> usize {
+        1 + self.coarse.len()
+    }
+
+    /// Level `k` (0 is the frame), clamped to the coarsest.
+    pub fn level(&self, k: usize) -> Level<'_> {
+        let k = k.min(self.coarse.len());
+        let img = if k == 0 {
+            self.base
+        } else {
+            Image::new(&self.coarse[k - 1])
+        };
+        Level::new(img, k)
+    }
+}
+
+/// One pyramid level, read with full-resolution positions (px).
+#[derive(Clone, Copy)]
+pub struct Level<'a> {
+    pub img: Image<'a>,
+    /// Level index `k` (0: full resolution).
+    pub k: usize,
+    /// `2^k`.
+    pub scale: f32,
+    /// `(2^k − 1) / 2`.
+    pub offset: f32,
+}
+
+impl<'a> Level<'a> {
+    /// Level `k` made of `img`.
+    pub fn new(img: Image<'a>, k: usize) -> Self {
+        let scale = (1u32 << k) as f32;
+        Level {
+            img,
+            k,
+            scale,
+            offset: 0.5 * (scale - 1.0),
+        }
+    }
+
+    /// The level's own coordinates of the full-resolution position `(x, y)`.
+    #[inline(always)]
+    pub fn to_level(&self, x: f32, y: f32) -> (f32, f32) {
+        (
+            (x - self.offset) / self.scale,
+            (y - self.offset) / self.scale,
+        )
+    }
+
+    /// Bilinear colour at the full-resolution position `(x, y)`.
+    #[inline(always)]
+    pub fn bilinear(&self, x: f32, y: f32) -> Option<Rgb> {
+        let (lx, ly) = self.to_level(x, y);
+        self.img.bilinear(lx, ly)
+    }
+
+    /// Bilinear colour at the full-resolution position `(x, y)` and its derivatives per
+    /// full-resolution px (see [`Image::bilinear_grad`]).
+    #[inline(always)]
+    pub fn bilinear_grad(&self, x: f32, y: f32) -> Option<(Rgb, Rgb, Rgb)> {
+        let (lx, ly) = self.to_level(x, y);
+        let (v, gx, gy) = self.img.bilinear_grad(lx, ly)?;
+        let s = 1.0 / self.scale;
+        Some((v, gx.map(|g| g * s), gy.map(|g| g * s)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp() -> RgbImage {
+        // R = 10 x, G = 5 y, B = x + y: a linear image, so bilinear reads are exact.
+        RgbImage::from_fn(8, 6, |x, y| {
+            image::Rgb([(10 * x) as u8, (5 * y) as u8, (x + y) as u8])
+        })
+    }
+
+    #[test]
+    fn bilinear_is_exact_on_a_linear_image() {
+        let img = ramp();
+        let im = Image::new(&img);
+        let c = im.bilinear(2.25, 3.5).unwrap();
+        assert!(
+            (c[0] - 22.5).abs() < 1e-4 && (c[1] - 17.5).abs() < 1e-4 && (c[2] - 5.75).abs() < 1e-4
+        );
+        let (v, gx, gy) = im.bilinear_grad(2.25, 3.5).unwrap();
+        assert_eq!(v, c);
+        assert_eq!(gx, [10.0, 0.0, 1.0]);
+        assert_eq!(gy, [0.0, 5.0, 1.0]);
+    }
+
+    #[test]
+    fn pyramid_levels_read_the_same_linear_image_at_full_resolution_positions() {
+        // A linear image stays linear under 2×2 averaging, so every level reads the same
+        // colour at the same full-resolution position (away from rounding).
+        let img = RgbImage::from_fn(64, 48, |x, y| image::Rgb([(2 * x) as u8, (3 * y) as u8, 7]));
+        let pyr = Pyramid::new(&img, 3);
+        assert_eq!(pyr.levels(), 3);
+        for k in 0..3 {
+            let c = pyr.level(k).bilinear(20.3, 17.6).unwrap();
+            assert!(
+                (c[0] - 40.6).abs() < 0.6 && (c[1] - 52.8).abs() < 0.6,
+                "level {k}: {c:?}"
+            );
+            let (_, gx, gy) = pyr.level(k).bilinear_grad(20.3, 17.6).unwrap();
+            assert!(
+                (gx[0] - 2.0).abs() < 0.05 && (gy[1] - 3.0).abs() < 0.05,
+                "{gx:?} {gy:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn outside_reads_none() {
+        let img = ramp();
+        let im = Image::new(&img);
+        assert!(im.bilinear(-0.1, 1.0).is_none());
+        assert!(im.bilinear(6.99, 1.0).is_some());
+        assert!(im.bilinear(7.0, 1.0).is_none());
+        assert!(im.bilinear(1.0, 5.0).is_none());
+        assert!(im.bilinear(f32::NAN, 1.0).is_none());
+    }
+}
