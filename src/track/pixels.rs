@@ -120,17 +120,27 @@ fn halve(raw: &[u8], w: usize, h: usize) -> image::RgbImage {
     image::RgbImage::from_raw(w2 as u32, h2 as u32, out).expect("buffer sized to the image")
 }
 
+/// Every pyramid level of `img` as owned images, level 0 (a copy of `img`) first.
+pub fn halve_all(img: &RgbImage, levels: usize) -> Vec<RgbImage> {
+    let mut out = vec![img.clone()];
+    while out.len() < levels.max(1) {
+        let prev = &out[out.len() - 1];
+        let next = halve(prev.as_raw(), prev.width() as usize, prev.height() as usize);
+        out.push(next);
+    }
+    out
+}
+
 impl<'a> Pyramid<'a> {
     /// The pyramid of `img` with `levels` levels (at least 1; level 0 is `img` itself).
     pub fn new(img: &'a RgbImage, levels: usize) -> Self {
         let base = Image::new(img);
         let mut coarse: Vec<image::RgbImage> = Vec::with_capacity(levels.saturating_sub(1));
-        for k in 1..levels.max(1) {
+        for _ in 1..levels.max(1) {
             let next = match coarse.last() {
                 None => halve(base.raw, base.w, base.h),
                 Some(prev) => halve(prev.as_raw(), prev.width() as usize, prev.height() as usize),
             };
-            let _ = k;
             coarse.push(next);
         }
         Pyramid { base, coarse }

@@ -8,7 +8,7 @@
 //! A bone whose samples stop fitting (hidden) loses its pull through the robust weights, and the
 //! priors hold its joints where the motion model expects them.
 
-use super::pixels::Level;
+use super::strip::View;
 use super::strip::{Shape, Strip};
 use crate::geom::{Point, Vector};
 use nalgebra::{DMatrix, DVector};
@@ -40,7 +40,6 @@ pub struct Problem<'a> {
     pub lengths: &'a [LengthPrior],
     /// One per joint.
     pub positions: &'a [PositionPrior],
-    pub gain: f32,
 }
 
 /// Colour-scale schedule of the refinement (graduated non-convexity): a wide scale first, so
@@ -50,7 +49,7 @@ const WIDEN: [f32; 3] = [4.0, 2.0, 1.0];
 /// Refines `x` (px, one point a joint) by damped Gauss–Newton steps of at most `max_step` px per
 /// joint: `iterations` in all, spread over the [`WIDEN`] stages; a stage ends early once no joint
 /// moves by more than 0.01 px.
-pub fn refine(p: &Problem, img: &Level, x: &mut [Point], iterations: usize, max_step: f32) {
+pub fn refine(p: &Problem, img: &View, x: &mut [Point], iterations: usize, max_step: f32) {
     let per_stage = iterations.div_ceil(WIDEN.len()).max(1);
     for widen in WIDEN {
         for _ in 0..per_stage {
@@ -62,7 +61,7 @@ pub fn refine(p: &Problem, img: &Level, x: &mut [Point], iterations: usize, max_
 }
 
 /// One damped Gauss–Newton step; returns whether some joint moved by more than 0.01 px.
-fn step(p: &Problem, img: &Level, x: &mut [Point], max_step: f32, widen: f32) -> bool {
+fn step(p: &Problem, img: &View, x: &mut [Point], max_step: f32, widen: f32) -> bool {
     let n = x.len();
     {
         let mut h = DMatrix::<f64>::zeros(2 * n, 2 * n);
@@ -72,7 +71,7 @@ fn step(p: &Problem, img: &Level, x: &mut [Point], max_step: f32, widen: f32) ->
             if w <= 0.0 {
                 continue;
             }
-            let ne = s.normal(img, x[s.parent], x[s.child], p.gain, w, widen);
+            let ne = s.normal(img, x[s.parent], x[s.child], w, widen);
             let idx = match s.shape {
                 Shape::Bone => [2 * s.parent, 2 * s.parent + 1, 2 * s.child, 2 * s.child + 1],
                 Shape::Patch => [2 * s.parent, 2 * s.parent + 1, usize::MAX, usize::MAX],

@@ -22,6 +22,34 @@
 //! hidden behind it on the seed frame) fades out of every cost.
 
 use super::pixels::{Level, Pyramid, Rgb, LEVELS};
+
+/// What a strip is matched against: one pyramid level of the frame, the same level of the
+/// clean plate when there is one, and the frame's brightness gain over the plate.
+#[derive(Clone, Copy)]
+pub struct View<'a> {
+    pub img: Level<'a>,
+    pub plate: Option<Level<'a>>,
+    pub gain: f32,
+    /// `1 / (3 (2σ_n)²)` for the clip's noise σ_n per channel: a frame pixel within 2σ_n (rms
+    /// over channels) of gain × plate looks like background.
+    pub bg_inv: f32,
+}
+
+impl View<'_> {
+    /// Whether the frame colour `col` at `(x, y)` (px) is explained by the clean plate there: such
+    /// a pixel is no evidence for any limb (a flesh-coloured hand against a sky of the same
+    /// colour), whatever the template says.
+    #[inline(always)]
+    fn looks_background(&self, x: f32, y: f32, col: Rgb) -> bool {
+        let Some(plate) = &self.plate else {
+            return false;
+        };
+        plate.bilinear(x, y).is_some_and(|b| {
+            let d: f32 = (0..3).map(|k| (col[k] - self.gain * b[k]).powi(2)).sum();
+            d * self.bg_inv < 1.0
+        })
+    }
+}
 use crate::geom::{Point, Vector};
 
 /// Squared normalised residual below which a sample counts as fitting.
@@ -136,6 +164,9 @@ pub struct Fit {
     pub parent_end: f32,
     /// The same at the child end.
     pub child_end: f32,
+    /// Weight of the samples behind `parent_end` and `child_end` (end-weighted sample counts).
+    pub parent_mass: f32,
+    pub child_mass: f32,
     /// 40th percentile of the samples' colour residuals, levels per channel (rms over
     /// channels): the noise level, when most of the bone fits.
     pub residual: f32,
@@ -194,6 +225,9 @@ pub struct Strip {
     seed_len: f32,
     /// See [`StripSpec::width_exponent`].
     width_exponent: f32,
+    /// Whether the clean plate may speak against this strip's samples: not where it holds the
+    /// character itself (see [`Strip::sample`]).
+    trust_plate: bool,
 }
 
 /// How to sample a strip on the seed frame.
@@ -248,6 +282,7 @@ impl Strip {
             } else {
                 0.0
             },
+            trust_plate: true,
         };
         let (lo, hi) = match shape {
             Shape::Bone => (-extent.ext_a, len + extent.ext_b),
@@ -315,6 +350,7 @@ impl Strip {
             for s in &mut strip.samples {
                 s.background = false;
             }
+            strip.trust_plate = false;
         }
         strip.rel = strip
             .samples
@@ -348,16 +384,14 @@ impl Strip {
 
     /// Diagnostics: every sample's image position (px) at the pose `(p, c)`, its squared
     /// normalised residual `e` (infinite outside the frame) and its weight.
-    pub fn probe(&self, img: &Level, p: Point, c: Point, gain: f32) -> Vec<(f32, f32, f32, f32)> {
+    pub fn probe(&self, v: &View, p: Point, c: Point) -> Vec<(f32, f32, f32, f32)> {
         let place = self.placement(p, c);
         let inv = self.inv_scale();
         (0..self.samples.len())
             .map(|k| {
                 let s = &self.samples[k];
                 let (x, y) = place.at(s.t, s.e, s.v);
-                let e = img
-                    .bilinear(x, y)
-                    .map_or(f32::INFINITY, |col| self.residual(k, img.k, col, gain, inv));
+                let e = self.residual_at(v, k, x, y, inv).unwrap_or(f32::INFINITY);
                 (x, y, e, self.weight(k))
             })
             .collect()
@@ -503,9 +537,20 @@ impl Strip {
         (d0 * d0 + d1 * d1 + d2 * d2) * inv
     }
 
-    /// Mean robust cost (0–1) over the coarse samples for the pose `(p, c)` on pyramid level
-    /// `img`: the search cost.
-    pub fn coarse_cost(&self, img: &Level, p: Point, c: Point, gain: f32) -> f32 {
+    /// Squared normalised residual of sample `k` at `(x, y)` on view `v`: `None` outside the
+    /// frame, infinite where the pixel looks like the clean plate.
+    #[inline(always)]
+    fn residual_at(&self, v: &View, k: usize, x: f32, y: f32, inv: f32) -> Option<f32> {
+        let col = v.img.bilinear(x, y)?;
+        if self.trust_plate && v.looks_background(x, y, col) {
+            return Some(f32::INFINITY);
+        }
+        Some(self.residual(k, v.img.k, col, v.gain, inv))
+    }
+
+    /// Mean robust cost (0–1) over the coarse samples for the pose `(p, c)` on view `v`: the
+    /// search cost.
+    pub fn coarse_cost(&self, v: &View, p: Point, c: Point) -> f32 {
         let place = self.placement(p, c);
         let inv = self.inv_scale();
         let (mut sum, mut n) = (0.0, 0.0);
@@ -515,12 +560,9 @@ impl Strip {
             if w > 0.0 {
                 let s = &self.samples[k];
                 let (x, y) = place.at(s.t, s.e, s.v);
-                sum += w * match img.bilinear(x, y) {
-                    Some(col) => {
-                        let e = self.residual(k, img.k, col, gain, inv);
-                        e / (1.0 + e)
-                    }
-                    None => 1.0,
+                sum += w * match self.residual_at(v, k, x, y, inv) {
+                    Some(e) if e.is_finite() => e / (1.0 + e),
+                    _ => 1.0,
                 };
                 n += w;
             }
@@ -533,9 +575,8 @@ impl Strip {
         }
     }
 
-    /// Fit statistics over all samples for the pose `(p, c)` on pyramid level `img` (level 0
-    /// for judging).
-    pub fn fit(&self, img: &Level, p: Point, c: Point, gain: f32) -> Fit {
+    /// Fit statistics over all samples for the pose `(p, c)` on view `v`.
+    pub fn fit(&self, v: &View, p: Point, c: Point) -> Fit {
         let place = self.placement(p, c);
         let inv = self.inv_scale();
         let (mut cost, mut inl, mut pe, mut ce) = (0.0, 0.0, 0.0, 0.0);
@@ -558,11 +599,14 @@ impl Strip {
             pw += w * lp;
             cw += w * lc;
             let (x, y) = place.at(s.t, s.e, s.v);
-            let Some(col) = img.bilinear(x, y) else {
+            let Some(e) = self.residual_at(v, k, x, y, inv) else {
                 cost += w;
                 continue;
             };
-            let e = self.residual(k, img.k, col, gain, inv);
+            if !e.is_finite() {
+                cost += w;
+                continue;
+            }
             cost += w * e / (1.0 + e);
             res.push((e / inv / 3.0).sqrt());
             if e < INLIER_E {
@@ -583,23 +627,19 @@ impl Strip {
             inliers: share(inl, wsum),
             parent_end: share(pe, pw),
             child_end: share(ce, cw),
+            parent_mass: pw,
+            child_mass: cw,
             residual,
         }
     }
 
     /// Gauss–Newton normal equations of the data term `Σ w_s ρ(e_s)` (scaled by `weight / Σw`)
-    /// at the pose `(p, c)` on pyramid level `img` (every `2^k`-th sample at level `k`), with iteratively reweighted least squares (sample weight
+    /// at the pose `(p, c)` on view `v` (every `2^k`-th sample at level `k`; a sample on a pixel
+    /// that looks like the clean plate costs 1 and does not pull), with iteratively reweighted least squares (sample weight
     /// `ρ'(e) = 1/(1+e)²`), the colour scale widened `widen` times (graduated non-convexity: a
     /// wide scale first lets samples on a misplaced sharp edge still pull).
-    pub fn normal(
-        &self,
-        img: &Level,
-        p: Point,
-        c: Point,
-        gain: f32,
-        weight: f32,
-        widen: f32,
-    ) -> Normal {
+    pub fn normal(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
+        let (img, gain) = (&v.img, v.gain);
         let place = self.placement(p, c);
         let inv = self.inv_scale() / (widen * widen);
         let mut out = Normal::default();
@@ -617,6 +657,10 @@ impl Strip {
                 out.cost += scale * sw as f64;
                 continue;
             };
+            if self.trust_plate && v.looks_background(x, y, col) {
+                out.cost += scale * sw as f64;
+                continue;
+            }
             let tm = &self.template[k][lv];
             let r = [
                 col[0] - gain * tm[0],
@@ -684,10 +728,9 @@ impl Strip {
     #[allow(clippy::too_many_arguments)]
     pub fn learn(
         &mut self,
-        pyr: &Pyramid,
+        views: &[View],
         (p, c): (Point, Point),
         others: &[Option<Placement>],
-        gain: f32,
         rate: f32,
         anchor_weight: f32,
         (sigma_min, sigma_max): (f32, f32),
@@ -698,8 +741,9 @@ impl Strip {
         let residual = fit.residual;
         let place = self.placement(p, c);
         let inv = self.inv_scale();
+        let gain = views[0].gain;
         let g = gain.max(1e-3);
-        let img = pyr.level(0);
+        let img = views[0].img;
         for k in 0..self.samples.len() {
             let s = self.samples[k];
             if s.background {
@@ -710,11 +754,11 @@ impl Strip {
                 continue;
             };
             if self.residual(k, 0, col, gain, inv) < INLIER_E {
-                for lv in 0..LEVELS {
+                for lv in 0..LEVELS.min(views.len()) {
                     let seen = if lv == 0 {
                         Some(col)
                     } else {
-                        pyr.level(lv).bilinear(x, y)
+                        views[lv].img.bilinear(x, y)
                     };
                     if let Some(seen) = seen {
                         for ch in 0..3 {
@@ -804,6 +848,16 @@ mod tests {
         }
     }
 
+    /// Level `k` of `pyr` as a view with no plate and no gain.
+    fn view<'a>(pyr: &'a Pyramid, k: usize) -> View<'a> {
+        View {
+            img: pyr.level(k),
+            plate: None,
+            gain: 1.0,
+            bg_inv: 0.0,
+        }
+    }
+
     fn bone(img: &Pyramid, p: Point, c: Point, ext: f32) -> Strip {
         // Background: within 30 levels (L1) of the backdrop colour, as the plate test does.
         let bg = |x: f32, y: f32| {
@@ -829,10 +883,10 @@ mod tests {
         let img = smooth_bar(p, c);
         let pyr = Pyramid::new(&img, LEVELS);
         let s = bone(&pyr, p, c, 3.0);
-        let at_seed = s.fit(&pyr.level(0), p, c, 1.0);
+        let at_seed = s.fit(&view(&pyr, 0), p, c);
         assert!(at_seed.cost < 1e-3 && at_seed.inliers > 0.99, "{at_seed:?}");
         let off = Vector::new(0.0, 3.0);
-        let shifted = s.fit(&pyr.level(0), p + off, c + off, 1.0);
+        let shifted = s.fit(&view(&pyr, 0), p + off, c + off);
         assert!(shifted.inliers < 0.7, "{shifted:?}");
     }
 
@@ -855,18 +909,11 @@ mod tests {
                 p + Vector::new(0.3, -0.2) * k,
                 c + Vector::new(1.5, 0.7) * k,
             );
-            let img = fp.level(lv);
-            let ne = s.normal(&img, p0, c0, 1.0, 1.0, 1.0);
+            let img = view(&fp, lv);
+            let ne = s.normal(&img, p0, c0, 1.0, 1.0);
             let cost = |q: [f32; 4]| {
-                s.normal(
-                    &img,
-                    Point::new(q[0], q[1]),
-                    Point::new(q[2], q[3]),
-                    1.0,
-                    1.0,
-                    1.0,
-                )
-                .cost
+                let (a, b) = (Point::new(q[0], q[1]), Point::new(q[2], q[3]));
+                s.normal(&img, a, b, 1.0, 1.0).cost
             };
             let q0 = [p0.x, p0.y, c0.x, c0.y];
             for i in 0..4 {
@@ -894,7 +941,7 @@ mod tests {
         let s = bone(&sp, p, c, 0.0);
         let (mut pp, mut cc) = (p, c);
         for k in 0..30 {
-            let ne = s.normal(&fp.level(2 - k / 10), pp, cc, 1.0, 100.0, 1.0);
+            let ne = s.normal(&view(&fp, 2 - k / 10), pp, cc, 100.0, 1.0);
             let h = nalgebra::Matrix4::from_fn(|i, j| ne.h[i][j] + if i == j { 1e-3 } else { 0.0 });
             let g = nalgebra::Vector4::from_fn(|i, _| ne.g[i]);
             let d = h.cholesky().unwrap().solve(&(-g));
@@ -919,17 +966,10 @@ mod tests {
         let moved = (p + Vector::new(0.0, 15.0), c + Vector::new(0.0, 15.0));
         let others = [Some(a.placement(p, c)), None];
         let before = b.weight_sum();
+        let views: Vec<View> = (0..LEVELS).map(|k| view(&pyr, k)).collect();
+        let fit = Fit::default();
         for _ in 0..10 {
-            b.learn(
-                &pyr,
-                moved,
-                &others,
-                1.0,
-                0.2,
-                0.5,
-                (5.0, 40.0),
-                &Fit::default(),
-            );
+            b.learn(&views, moved, &others, 0.2, 0.5, (5.0, 40.0), &fit);
         }
         assert!(
             b.weight_sum() < 0.1 * before,
@@ -940,16 +980,7 @@ mod tests {
         let mut c2 = bone(&pyr, p, c, 0.0);
         c2.link(1, &[a.extent, c2.extent]);
         for _ in 0..10 {
-            c2.learn(
-                &pyr,
-                moved,
-                &[None, None],
-                1.0,
-                0.2,
-                0.5,
-                (5.0, 40.0),
-                &Fit::default(),
-            );
+            c2.learn(&views, moved, &[None, None], 0.2, 0.5, (5.0, 40.0), &fit);
         }
         assert_eq!(c2.weight_sum(), before);
     }

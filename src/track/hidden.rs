@@ -1,0 +1,202 @@
+//! Hidden joints: where a joint goes when its colour evidence has collapsed (METHOD.md §2,
+//! "Occlusion": the motion model keeps it on its path), and how it is found again.
+
+use super::motion::Prediction;
+use super::search::{grid_min, Window};
+use super::strip::View;
+use super::tracker::Tracker;
+use crate::geom::{Point, Vector};
+use std::f32::consts::PI;
+
+/// Where the middle joint of a two-bone chain goes: at distance `l1` (px) from `a` and `l2`
+/// from `c`, of the two such points the one nearer `guess` (two-bone inverse kinematics). When
+/// `a` and `c` are too far apart or too close for both lengths, it lies on the line through them,
+/// splitting the gap in the ratio of the lengths.
+pub(super) fn two_bone(a: Point, c: Point, l1: f32, l2: f32, guess: Point) -> Point {
+    let d = c - a;
+    let dist = d.norm();
+    if dist < 1e-3 {
+        return guess;
+    }
+    let u = d / dist;
+    // Distance from `a` along the line to the chord, and half the chord.
+    let along = (dist * dist + l1 * l1 - l2 * l2) / (2.0 * dist);
+    let h2 = l1 * l1 - along * along;
+    if h2 <= 0.0 {
+        return a + u * (dist * l1 / (l1 + l2).max(1e-3));
+    }
+    let n = Vector::new(-u.y, u.x);
+    let base = a + u * along;
+    let (p1, p2) = (base + n * h2.sqrt(), base - n * h2.sqrt());
+    if (p1 - guess).norm() <= (p2 - guess).norm() {
+        p1
+    } else {
+        p2
+    }
+}
+
+impl Tracker {
+    /// A hidden joint's colour evidence is not to be trusted: it keeps its predicted place
+    /// relative to its parent (a hidden root: where its seen children put it), or, when one of
+    /// its children is seen, the place that keeps both of its bones at their predicted lengths
+    /// nearest to that (an elbow behind the torso sits where the shoulder and the seen wrist put
+    /// it). Joints in `keep` (re-acquired this frame) stay where they are.
+    pub(super) fn place_hidden(
+        &self,
+        pred: &[Prediction],
+        evidence: &[f32],
+        keep: &[bool],
+        x: &mut [Point],
+    ) {
+        let seen = |j: usize| evidence[j] >= self.params.seen_share || keep[j];
+        for &j in &self.order {
+            if seen(j) {
+                continue;
+            }
+            let Some(par) = self.parents[j] else {
+                let from: Vec<Point> = self.children[j]
+                    .iter()
+                    .filter(|&&c| seen(c))
+                    .map(|&c| x[c] - (pred[c].pos - pred[j].pos))
+                    .collect();
+                if !from.is_empty() {
+                    let sum = from.iter().fold(Vector::zeros(), |a, q| a + q.coords);
+                    x[j] = Point::from(sum / from.len() as f32);
+                }
+                continue;
+            };
+            let guess = x[par] + (pred[j].pos - pred[par].pos);
+            x[j] = match self.children[j].iter().copied().find(|&c| seen(c)) {
+                Some(c) => {
+                    let l1 = (pred[j].pos - pred[par].pos).norm();
+                    let l2 = (pred[c].pos - pred[j].pos).norm();
+                    two_bone(x[par], x[c], l1, l2, guess)
+                }
+                None => guess,
+            };
+        }
+    }
+
+    /// Looks for hidden joint `j`'s bone all around its parent (lengths within 15 % of its
+    /// current one) on the search view `v`, judged on `judge`. Returns the child position when
+    /// enough of the bone fits there.
+    pub(super) fn reacquire(&self, v: &View, judge: &View, j: usize, x: &[Point]) -> Option<Point> {
+        let p = &self.params;
+        let s = &self.model.strips[self.model.strip_of[j]?];
+        let par = self.parents[j]?;
+        let d = x[j] - x[par];
+        let len = d.norm().max(1.0);
+        let step = (p.search_step_px / len).clamp(0.5f32.to_radians(), 5f32.to_radians());
+        let w = Window {
+            centre: [d.y.atan2(d.x), len.ln()],
+            half: [PI, 0.15],
+            step: [step, 0.15],
+        };
+        let at = |q: [f32; 2]| x[par] + Vector::new(q[0].cos(), q[0].sin()) * q[1].exp();
+        let (best, _) = grid_min(&w, |q| s.coarse_cost(v, x[par], at(q)));
+        let c = at(best);
+        let fit = s.fit(judge, x[par], c);
+        (fit.inliers >= p.reacquire_share && fit.child_end >= p.reacquire_share).then_some(c)
+    }
+
+    /// Looks for hidden joint `j` whose parent is hidden too, with the grandparent placed: the
+    /// parent on the circle around the grandparent (its bone's current length), `j` on the
+    /// circle around the parent, scored by the bone between them on `v` and judged on `judge`.
+    /// Returns the parent's and `j`'s positions when enough of that bone fits.
+    pub(super) fn reacquire_chain(
+        &self,
+        v: &View,
+        judge: &View,
+        j: usize,
+        x: &[Point],
+    ) -> Option<(Point, Point)> {
+        let p = &self.params;
+        let s = &self.model.strips[self.model.strip_of[j]?];
+        let par = self.parents[j]?;
+        let grand = self.parents[par]?;
+        let d1 = x[par] - x[grand];
+        let d2 = x[j] - x[par];
+        let (l1, l2) = (d1.norm().max(1.0), d2.norm().max(1.0));
+        let w = Window {
+            centre: [d1.y.atan2(d1.x), d2.y.atan2(d2.x)],
+            half: [PI, PI],
+            step: [
+                (p.search_step_px / l1).clamp(1f32.to_radians(), 5f32.to_radians()),
+                (p.search_step_px / l2).clamp(2f32.to_radians(), 5f32.to_radians()),
+            ],
+        };
+        let at = |q: [f32; 2]| {
+            let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;
+            (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
+        };
+        let (best, _) = grid_min(&w, |q| {
+            let (b, c) = at(q);
+            s.coarse_cost(v, b, c)
+        });
+        let (b, c) = at(best);
+        let fit = s.fit(judge, b, c);
+        (fit.inliers >= p.reacquire_share && fit.child_end >= p.reacquire_share).then_some((b, c))
+    }
+
+    /// Looks for every hidden joint (parents first), moving what is found and everything
+    /// below it. Returns which joints were re-acquired.
+    pub(super) fn reacquire_hidden(
+        &self,
+        views: &[View],
+        judge: &View,
+        evidence: &[f32],
+        x: &mut [Point],
+    ) -> Vec<bool> {
+        let seen_share = self.params.seen_share;
+        let v = &views[1.min(views.len() - 1)];
+        let mut found = vec![false; x.len()];
+        for &j in &self.order {
+            let Some(par) = self.parents[j] else {
+                continue;
+            };
+            if evidence[j] >= seen_share {
+                continue;
+            }
+            if evidence[par] >= seen_share || found[par] {
+                if let Some(c) = self.reacquire(v, judge, j, x) {
+                    let d = c - x[j];
+                    for k in self.descendants_and_self(j) {
+                        x[k] += d;
+                    }
+                    found[j] = true;
+                }
+            } else if let Some((b, c)) = self.reacquire_chain(v, judge, j, x) {
+                // The parent is hidden too (an elbow behind the torso): both are placed by the
+                // bone between them, as far as it shows; the parent's other children follow it.
+                let (db, dc) = (b - x[par], c - x[j]);
+                x[par] += db;
+                for &sib in &self.children[par] {
+                    let d = if sib == j { dc } else { db };
+                    for k in self.descendants_and_self(sib) {
+                        x[k] += d;
+                    }
+                }
+                found[par] = true;
+                found[j] = true;
+            }
+        }
+        found
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_bone_keeps_both_lengths_on_the_side_of_the_guess() {
+        let (a, c) = (Point::new(0.0, 0.0), Point::new(8.0, 0.0));
+        let up = two_bone(a, c, 5.0, 5.0, Point::new(4.0, -10.0));
+        assert!((up - Point::new(4.0, -3.0)).norm() < 1e-4, "{up:?}");
+        let down = two_bone(a, c, 5.0, 5.0, Point::new(4.0, 10.0));
+        assert!((down - Point::new(4.0, 3.0)).norm() < 1e-4, "{down:?}");
+        // Out of reach: on the line, split in the ratio of the lengths.
+        let far = two_bone(a, Point::new(30.0, 0.0), 10.0, 5.0, Point::new(0.0, 5.0));
+        assert!((far - Point::new(20.0, 0.0)).norm() < 1e-4, "{far:?}");
+    }
+}

@@ -1,0 +1,220 @@
+//! Locating the joints on a frame: the coarse search (METHOD.md eq. 4.5–4.6, an exhaustive
+//! search over windows sized by the motion model) and the joint Gauss–Newton refinement.
+
+use super::model::End;
+use super::motion::Prediction;
+use super::search::{grid_min, Window};
+use super::solve::{self, LengthPrior, PositionPrior, Problem};
+use super::strip::{Fit, Shape, Strip, View};
+use super::tracker::Tracker;
+use crate::geom::{Point, Vector};
+
+impl Tracker {
+    /// The coarse search, parents first; each joint starts where its parent's move carries its
+    /// prediction. `views` are the frame's pyramid levels (finest first).
+    pub(super) fn search(&self, views: &[View], pred: &[Prediction]) -> Vec<Point> {
+        let p = &self.params;
+        let n = self.joints.len();
+        let coarse = &views[views.len() - 1];
+        let middle = &views[1.min(views.len() - 1)];
+        let mut x: Vec<Point> = pred.iter().map(|q| q.pos).collect();
+        let mut shift = vec![Vector::zeros(); n];
+        for &j in &self.order {
+            match self.parents[j] {
+                None => {
+                    let radius =
+                        (p.search_sigmas * pred[j].sigma).clamp(p.search_min_px, p.search_max_px);
+                    let d = self.search_root(coarse, j, &x, radius);
+                    shift[j] = d;
+                    x[j] += d;
+                }
+                Some(par) => {
+                    x[j] = pred[j].pos + shift[par];
+                    if let Some(si) = self.model.strip_of[j] {
+                        // The bones below, where the parent's move carries their prediction.
+                        let below: Vec<(usize, Point)> = self.children[j]
+                            .iter()
+                            .filter_map(|&c| {
+                                Some((self.model.strip_of[c]?, pred[c].pos + shift[par]))
+                            })
+                            .collect();
+                        x[j] = self.search_bone(middle, si, x[par], x[j], &below, &pred[j]);
+                    }
+                    shift[j] = x[j] - pred[j].pos;
+                }
+            }
+        }
+        x
+    }
+
+    /// Best translation (px) of root `r` and everything below it within `radius` px, on a
+    /// coarse pyramid level: every bone of the subtree at its predicted place relative to the
+    /// root, so the whole body's shape anchors the search.
+    fn search_root(&self, v: &View, r: usize, x: &[Point], radius: f32) -> Vector {
+        let p = &self.params;
+        let strips: Vec<&Strip> = self
+            .descendants_and_self(r)
+            .into_iter()
+            .filter_map(|j| self.model.strip_of[j])
+            .map(|si| &self.model.strips[si])
+            .collect();
+        if strips.is_empty() {
+            return Vector::zeros();
+        }
+        let step = (p.search_step_px * v.img.scale / 2.0).min(radius.max(1.0));
+        let w = Window {
+            centre: [0.0, 0.0],
+            half: [radius, radius],
+            step: [step, step],
+        };
+        let (best, _) = grid_min(&w, |q| {
+            let d = Vector::new(q[0], q[1]);
+            let colour: f32 = strips
+                .iter()
+                .map(|s| s.coarse_cost(v, x[s.parent] + d, x[s.child] + d))
+                .sum::<f32>()
+                / strips.len() as f32;
+            colour + p.geo_weight * d.norm_squared() / (radius * radius)
+        });
+        Vector::new(best[0], best[1])
+    }
+
+    /// Best position of the child end of strip `si` with its parent at `parent`, in an angle ×
+    /// length window around `guess`. The bones below (`below`: strip and far end when the child
+    /// is at `guess`) move rigidly with the child and add their cost, so a bone partly hidden
+    /// is still placed by the next one down. The bone moves off `guess` only on real evidence:
+    /// a hidden bone costs nearly 1 everywhere, and its noise must not pull it off its path.
+    fn search_bone(
+        &self,
+        v: &View,
+        si: usize,
+        parent: Point,
+        guess: Point,
+        below: &[(usize, Point)],
+        pred: &Prediction,
+    ) -> Point {
+        let p = &self.params;
+        let s = &self.model.strips[si];
+        let d = guess - parent;
+        let len = d.norm().max(1.0);
+        let (a0, l0) = (d.y.atan2(d.x), len.ln());
+        let half_a = (p.search_sigmas * pred.sigma)
+            .max(p.search_min_px / len)
+            .min(p.angle_max_deg.to_radians());
+        let half_l = (p.search_sigmas * pred.len_sigma).clamp(p.stretch_min, p.stretch_max);
+        let w = Window {
+            centre: [a0, l0],
+            half: [half_a, half_l],
+            step: [
+                (p.search_step_px / len).min(half_a.max(1e-3)),
+                (p.search_step_px / len).min(half_l),
+            ],
+        };
+        let at = |q: [f32; 2]| parent + Vector::new(q[0].cos(), q[0].sin()) * q[1].exp();
+        let n = (1 + below.len()) as f32;
+        let colour = |c: Point| {
+            let d = c - guess;
+            let mut sum = s.coarse_cost(v, parent, c);
+            for &(bi, end) in below {
+                sum += self.model.strips[bi].coarse_cost(v, c, end + d);
+            }
+            sum / n
+        };
+        let (best, _) = grid_min(&w, |q| {
+            let geo = ((q[0] - a0) / half_a).powi(2) + ((q[1] - l0) / half_l).powi(2);
+            colour(at(q)) + p.geo_weight * geo
+        });
+        if colour(at(best)) < colour(guess) - p.move_evidence {
+            at(best)
+        } else {
+            guess
+        }
+    }
+
+    /// Gauss–Newton refinement of every joint, from the coarsest view down to
+    /// `finest_level`, with the motion prior relative to each parent and the bone-length prior
+    /// from the predictions.
+    pub(super) fn refine(&self, views: &[View], pred: &[Prediction], x: &mut [Point]) {
+        let p = &self.params;
+        let strips = &self.model.strips;
+        let weights = vec![p.colour_weight; strips.len()];
+        let lengths: Vec<LengthPrior> = strips
+            .iter()
+            .map(|s| {
+                let len = (pred[s.child].pos - pred[s.parent].pos).norm().max(1.0);
+                let sigma = len * pred[s.child].len_sigma.max(p.length_sigma);
+                LengthPrior {
+                    len,
+                    weight: if s.shape == Shape::Bone {
+                        1.0 / (sigma * sigma)
+                    } else {
+                        0.0
+                    },
+                }
+            })
+            .collect();
+        let positions: Vec<PositionPrior> = (0..x.len())
+            .map(|j| {
+                let q = &pred[j];
+                let (parent, offset, s) = match self.parents[j] {
+                    None => (None, q.pos.coords, q.sigma.max(3.0 * p.prior_sigma_px)),
+                    Some(par) => {
+                        let off = q.pos - pred[par].pos;
+                        let s = (off.norm() * q.sigma.hypot(q.len_sigma)).max(p.prior_sigma_px);
+                        (Some(par), off, s)
+                    }
+                };
+                PositionPrior {
+                    parent,
+                    offset,
+                    weight: p.prior_weight / (s * s),
+                }
+            })
+            .collect();
+        let problem = Problem {
+            strips,
+            strip_weight: &weights,
+            lengths: &lengths,
+            positions: &positions,
+        };
+        for v in views.iter().skip(p.finest_level).rev() {
+            solve::refine(&problem, v, x, p.iterations, 2.0 * v.img.scale);
+        }
+    }
+
+    /// Every strip's fit with the joints at `x`, on view `v`.
+    pub(super) fn fits(&self, v: &View, x: &[Point]) -> Vec<Fit> {
+        let strips = &self.model.strips;
+        strips
+            .iter()
+            .map(|s| s.fit(v, x[s.parent], x[s.child]))
+            .collect()
+    }
+
+    /// Evidence for each joint: the share of fitting samples in the halves of its strips nearest
+    /// to it, averaged over its strips by how many samples each has there.
+    pub(super) fn evidence(&self, fits: &[Fit]) -> Vec<f32> {
+        self.model
+            .touching
+            .iter()
+            .map(|t| {
+                let (mut sum, mut mass) = (0.0, 0.0);
+                for &(si, end) in t {
+                    let f = &fits[si];
+                    let (share, m) = match end {
+                        End::Parent => (f.parent_end, f.parent_mass),
+                        End::Child => (f.child_end, f.child_mass),
+                        End::Patch => (f.inliers, 1.0),
+                    };
+                    sum += share * m;
+                    mass += m;
+                }
+                if mass > 0.0 {
+                    (sum / mass).min(1.0)
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+}

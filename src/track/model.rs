@@ -1,0 +1,203 @@
+//! The appearance model built from the seed frame: one [`Strip`] per bone (the pixels nearest
+//! to it, out to the limb's edge and past its ends), one patch per lone joint, and which strips
+//! touch which joint.
+
+use super::pixels::{Pyramid, LEVELS};
+use super::strip::{Extent, Shape, Strip, StripSpec};
+use super::TrackParams;
+use crate::background::Background;
+use crate::geom::{Point, Vector};
+use crate::seed::Seeds;
+use image::RgbImage;
+
+/// Which end of a strip a joint is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum End {
+    Parent,
+    Child,
+    Patch,
+}
+
+/// The strips of a skeleton.
+pub(super) struct Model {
+    pub strips: Vec<Strip>,
+    /// Strip of the bone ending at each joint (or of a lone joint's patch).
+    pub strip_of: Vec<Option<usize>>,
+    /// Strips touching each joint, and which end of them it is.
+    pub touching: Vec<Vec<(usize, End)>>,
+    /// The colour scale the strips start with (levels per channel).
+    pub sigma: f32,
+}
+
+/// Half-width (px) of the limb along the bone `p → c` on the seed frame: the median distance
+/// from the axis to the first pixel `background` says is background, across the bone at a
+/// quarter, half and three quarters of its length, both sides; at most `max`.
+fn limb_radius(p: Point, c: Point, max: f32, background: &dyn Fn(f32, f32) -> bool) -> f32 {
+    let d = c - p;
+    let len = d.norm().max(1e-3);
+    let n = Vector::new(-d.y, d.x) / len;
+    let mut edges = Vec::with_capacity(6);
+    for t in [0.25, 0.5, 0.75] {
+        let o = p + d * t;
+        for side in [-1.0, 1.0] {
+            let mut v = 0.5;
+            while v < max {
+                let q = o + n * (side * v);
+                if background(q.x, q.y) {
+                    break;
+                }
+                v += 0.5;
+            }
+            edges.push(v.min(max));
+        }
+    }
+    edges.sort_by(f32::total_cmp);
+    0.5 * (edges[2] + edges[3])
+}
+
+impl Model {
+    /// Samples every bone of `seeds` (longer than 2 px) and every lone joint on `seed_frame`.
+    /// With a background model, seed pixels that look like the plate carry no weight, limb
+    /// widths are measured out to the background, and the colour scale starts at twice the
+    /// clip's noise (the template carries the seed frame's noise too), at least
+    /// `colour_sigma`.
+    pub fn build(
+        params: &TrackParams,
+        seeds: &Seeds,
+        seed_frame: &RgbImage,
+        background: Option<&Background>,
+    ) -> Model {
+        let sk = &seeds.skeleton;
+        let n = sk.len();
+        let boxes = seeds.boxes();
+        let centres: Vec<Point> = boxes.iter().map(|b| b.centre()).collect();
+        let children: Vec<Vec<usize>> = (0..n).map(|i| sk.children(i)).collect();
+        let img = Pyramid::new(seed_frame, LEVELS);
+        let half_box = |j: usize| 0.5 * boxes[j].w.max(boxes[j].h) as f32;
+        let bones: Vec<(usize, usize)> = sk
+            .bones()
+            .into_iter()
+            .filter(|&(p, c)| (centres[c] - centres[p]).norm() >= 2.0)
+            .collect();
+        let looks_background = |x: f32, y: f32| match background {
+            Some(bg) => {
+                let (xi, yi) = (x.round(), y.round());
+                xi >= 0.0
+                    && yi >= 0.0
+                    && (xi as u32) < seed_frame.width()
+                    && (yi as u32) < seed_frame.height()
+                    && !bg.is_foreground(seed_frame, xi as u32, yi as u32)
+            }
+            None => false,
+        };
+        let extents: Vec<Extent> = bones
+            .iter()
+            .map(|&(p, c)| {
+                let max_half = params.bone_half_width * boxes[c].w.min(boxes[c].h) as f32;
+                let r = limb_radius(centres[p], centres[c], max_half, &looks_background);
+                let reach = r + params.edge_margin_px;
+                let root = sk.parents[p].is_none();
+                Extent {
+                    a: centres[p],
+                    b: centres[c],
+                    ext_a: reach
+                        * if root {
+                            params.root_reach
+                        } else {
+                            params.joint_reach
+                        },
+                    ext_b: if children[c].is_empty() {
+                        params.end_reach * half_box(c)
+                    } else {
+                        params.joint_reach * reach
+                    },
+                    half_width: reach.min(max_half),
+                }
+            })
+            .collect();
+        let noise = background.map_or(0.0, |b| b.noise_sigma());
+        let sigma = params.colour_sigma.max(2.0 * noise);
+        let spec = StripSpec {
+            max_samples: params.max_samples,
+            coarse_samples: params.coarse_samples,
+            sigma,
+            width_exponent: params.width_exponent,
+        };
+        let mut strips: Vec<Strip> = Vec::new();
+        let mut strip_of = vec![None; n];
+        for (bi, &(p, c)) in bones.iter().enumerate() {
+            let others: Vec<Extent> = extents
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| k != bi)
+                .map(|(_, e)| *e)
+                .collect();
+            let shape = Shape::Bone;
+            let s = Strip::sample(
+                &img,
+                shape,
+                (p, c),
+                extents[bi],
+                &spec,
+                &others,
+                &looks_background,
+            );
+            if let Some(s) = s {
+                strip_of[c] = Some(strips.len());
+                strips.push(s);
+            }
+        }
+        let linked: Vec<Extent> = strips.iter().map(|s| s.extent).collect();
+        for (k, s) in strips.iter_mut().enumerate() {
+            s.link(k, &linked);
+        }
+        if params.foreign_tolerance > 0.0 {
+            let palettes: Vec<_> = strips.iter().map(|s| s.palette()).collect();
+            for (k, s) in strips.iter_mut().enumerate() {
+                s.doubt_foreign(k, &palettes, params.foreign_tolerance);
+            }
+        }
+        for j in 0..n {
+            if sk.parents[j].is_some() || !children[j].is_empty() {
+                continue;
+            }
+            let b = boxes[j];
+            let extent = Extent {
+                a: centres[j],
+                b: centres[j],
+                ext_a: 0.5 * (b.h as f32 - 1.0),
+                ext_b: 0.5 * (b.h as f32 - 1.0),
+                half_width: 0.5 * (b.w as f32 - 1.0),
+            };
+            let s = Strip::sample(
+                &img,
+                Shape::Patch,
+                (j, j),
+                extent,
+                &spec,
+                &[],
+                &looks_background,
+            );
+            if let Some(s) = s {
+                strip_of[j] = Some(strips.len());
+                strips.push(s);
+            }
+        }
+        let mut touching = vec![Vec::new(); n];
+        for (si, s) in strips.iter().enumerate() {
+            match s.shape {
+                Shape::Bone => {
+                    touching[s.parent].push((si, End::Parent));
+                    touching[s.child].push((si, End::Child));
+                }
+                Shape::Patch => touching[s.parent].push((si, End::Patch)),
+            }
+        }
+        Model {
+            strips,
+            strip_of,
+            touching,
+            sigma,
+        }
+    }
+}

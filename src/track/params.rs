@@ -1,0 +1,154 @@
+//! Tracking parameters: every knob of [`super::Tracker`], with its unit and default. A run records
+//! the values it used in `run.toml`; `--params FILE` overrides any of them.
+
+use serde::{Deserialize, Serialize};
+
+/// Tracking parameters (all recorded in `run.toml`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrackParams {
+    /// Smallest search radius (px) of a root, and smallest arc (px) swept by a bone's end.
+    pub search_min_px: f32,
+    /// Largest search radius (px) of a root.
+    pub search_max_px: f32,
+    /// Search window half-size in standard deviations of the prediction.
+    pub search_sigmas: f32,
+    /// Grid step (px, at a bone's end) of the coarse search.
+    pub search_step_px: f32,
+    /// A search moves a bone off its prediction only if that lowers its mean robust colour cost
+    /// (0–1) by more than this.
+    pub move_evidence: f32,
+    /// Widest angle window of a bone, each side of the prediction (degrees).
+    pub angle_max_deg: f32,
+    /// Narrowest and widest length window of a bone, each side of the prediction (share of its
+    /// length).
+    pub stretch_min: f32,
+    pub stretch_max: f32,
+    /// W_g of eq. 4.5: the cost, against a bone's mean robust colour cost (0–1), of being at the
+    /// edge of the search window.
+    pub geo_weight: f32,
+    /// Weight of each bone's colour term in the refinement, against the priors (per px²).
+    pub colour_weight: f32,
+    /// Weight of the motion prior in the refinement (scales 1 / predicted variance).
+    pub prior_weight: f32,
+    /// Smallest standard deviation (px) of the motion prior in the refinement: the motion
+    /// model is only a model.
+    pub prior_sigma_px: f32,
+    /// Smallest spread of a bone's length prior (share of its length).
+    pub length_sigma: f32,
+    /// Smallest initial colour scale σ of the robust cost (levels per channel); it starts at
+    /// twice the clip's measured noise if that is more, and adapts per bone to the residuals it
+    /// sees, between 0.75× and 2× its start.
+    pub colour_sigma: f32,
+    /// Weight of the seed appearance (anchor) in a bone's template; the rest is its running one.
+    pub anchor_weight: f32,
+    /// Blend rate of the running appearance on confident frames.
+    pub update_rate: f32,
+    /// Half-width of a bone's strip, as a share of the smaller side of its child's rectangle.
+    pub bone_half_width: f32,
+    /// How far a bone's strip reaches past a leaf joint (the hand past the wrist, the foot past
+    /// the ankle), as a share of half that joint's rectangle.
+    pub end_reach: f32,
+    /// How far a bone's strip reaches past a root, and past any other joint, as a share of the
+    /// limb's half-width plus `edge_margin_px` (so that it holds the limb's rounded end).
+    pub root_reach: f32,
+    pub joint_reach: f32,
+    /// Margin (px) past a limb's edge that its strip holds.
+    pub edge_margin_px: f32,
+    /// Colour distance (levels, RGB) within which a seed pixel shared by two bones' strips is
+    /// taken for the other bone's (see `Strip::doubt_foreign`); 0 turns this off.
+    pub foreign_tolerance: f32,
+    /// How a limb's width follows its length, ×(L₀/L)^γ: 0 keeps it (real limbs), 0.5 is a
+    /// cartoon squash-and-stretch, 1 keeps the area in the image.
+    pub width_exponent: f32,
+    /// Most samples per bone.
+    pub max_samples: usize,
+    /// Most samples per bone in the coarse search.
+    pub coarse_samples: usize,
+    /// Gauss–Newton iterations of the refinement, per pyramid level.
+    pub iterations: usize,
+    /// Finest pyramid level the refinement goes down to (0: full resolution).
+    pub finest_level: usize,
+    /// Measurement standard deviation of a cleanly seen joint (px).
+    pub meas_sigma_px: f32,
+    /// Prior speed uncertainty of a root at the seed frame (px/frame).
+    pub speed_sigma: f32,
+    /// Prior turn-rate uncertainty of a bone at the seed frame (rad/frame).
+    pub turn_sigma: f32,
+    /// Random jerk of a root's motion model (px/frame³).
+    pub jerk_sigma: f32,
+    /// Random angular jerk of a bone's motion model (rad/frame³).
+    pub turn_jerk_sigma: f32,
+    /// Random jerk of a bone's log length (per frame³).
+    pub stretch_jerk_sigma: f32,
+    /// A joint is seen when at least this share of the samples near it (of any of its bones)
+    /// fit; below, it is hidden (`occluded`).
+    pub seen_share: f32,
+    /// A seen joint is `ok` from this share on; below, `low`.
+    pub ok_share: f32,
+    /// Pyramid level (0: full resolution) on which bones are judged seen or hidden: a coarser
+    /// level averages out sensor noise and compression artefacts.
+    pub judge_level: usize,
+    /// A hidden bone found again on the circle around its parent is taken when this share of
+    /// its samples fit.
+    pub reacquire_share: f32,
+    /// A seen joint whose bone length differs from the predicted one by more than this share is
+    /// `low`.
+    pub bone_tolerance: f32,
+    /// `true`: a root joint's angle turns with the bone to its first child; `false`: it keeps
+    /// its seed orientation.
+    pub rotate_roots: bool,
+    /// Longest hidden stretch (frames) filled afterwards by interpolating the bone between the
+    /// frames on either side (0: no filling; frames are held back that long).
+    pub fill_gaps_max: u32,
+    /// Frames in a row hidden before the status turns from `occluded` to `lost`.
+    pub lost_after_frames: u32,
+}
+
+impl Default for TrackParams {
+    fn default() -> Self {
+        TrackParams {
+            search_min_px: 6.0,
+            search_max_px: 64.0,
+            search_sigmas: 3.0,
+            search_step_px: 2.0,
+            move_evidence: 0.03,
+            angle_max_deg: 60.0,
+            stretch_min: 0.08,
+            stretch_max: 0.35,
+            geo_weight: 0.05,
+            colour_weight: 100.0,
+            prior_weight: 1.0,
+            prior_sigma_px: 3.0,
+            length_sigma: 0.15,
+            colour_sigma: 10.0,
+            anchor_weight: 0.5,
+            update_rate: 0.1,
+            bone_half_width: 0.5,
+            end_reach: 1.0,
+            root_reach: 1.0,
+            joint_reach: 1.0,
+            edge_margin_px: 2.0,
+            width_exponent: 0.0,
+            foreign_tolerance: 20.0,
+            max_samples: 256,
+            coarse_samples: 48,
+            iterations: 8,
+            finest_level: 0,
+            meas_sigma_px: 0.5,
+            speed_sigma: 10.0,
+            turn_sigma: 0.15,
+            jerk_sigma: 2.0,
+            turn_jerk_sigma: 0.03,
+            stretch_jerk_sigma: 0.01,
+            seen_share: 0.3,
+            ok_share: 0.6,
+            judge_level: 1,
+            reacquire_share: 0.6,
+            bone_tolerance: 0.3,
+            rotate_roots: false,
+            fill_gaps_max: 120,
+            lost_after_frames: 30,
+        }
+    }
+}

@@ -1,0 +1,359 @@
+//! [`Tracker`]: the per-frame loop (predict, search, refine, judge, learn) over the appearance
+//! model of [`super::model`].
+
+use super::gapfill::GapFiller;
+use super::model::Model;
+use super::motion::{Motion, Prediction};
+use super::pixels::{halve_all, Image, Level, Pyramid, LEVELS};
+use super::strip::{Fit, Placement, Strip, View};
+use super::{JointEstimate, Status, TrackParams};
+use crate::background::Background;
+use crate::geom::{direction, unwrap_angle, Point};
+use crate::seed::Seeds;
+use image::RgbImage;
+
+/// Per-joint tracker state.
+#[derive(Debug, Clone)]
+pub(super) struct JointState {
+    pub motion: Motion,
+    /// Direction (rad) that defines the joint's `angle` 0: its bone's on the seed frame (a root:
+    /// the bone to its first child).
+    pub seed_dir: f32,
+    pub hidden_run: u32,
+    pub last: JointEstimate,
+}
+
+/// Tracks all joints of a seed file frame by frame.
+pub struct Tracker {
+    pub(super) params: TrackParams,
+    pub(super) parents: Vec<Option<usize>>,
+    pub(super) children: Vec<Vec<usize>>,
+    /// Joints, parents before children.
+    pub(super) order: Vec<usize>,
+    pub(super) model: Model,
+    pub(super) joints: Vec<JointState>,
+    background: Option<Background>,
+    /// The clean plate's pyramid levels (level 0 is the plate), when there is one.
+    plate: Vec<RgbImage>,
+    /// Bottom-right pixel of the frame (px): roots are kept inside.
+    frame_max: Point,
+    /// The last frame's intermediate results, when asked for (see [`Tracker::trace`]).
+    trace: Option<Trace>,
+}
+
+/// Intermediate results of one [`Tracker::step`], for diagnostics: per joint, the predicted
+/// position, the position after the coarse search and after refinement (px), the evidence
+/// (share of fitting samples near it) and whether it was re-acquired.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trace {
+    pub predicted: Vec<Point>,
+    pub searched: Vec<Point>,
+    pub refined: Vec<Point>,
+    pub evidence: Vec<f32>,
+    pub reacquired: Vec<bool>,
+}
+
+impl Tracker {
+    /// Builds the tracker from the seed file and the seed frame (see [`Model::build`]).
+    pub fn new(
+        params: TrackParams,
+        seeds: &Seeds,
+        seed_frame: &RgbImage,
+        background: Option<Background>,
+    ) -> Self {
+        let sk = &seeds.skeleton;
+        let centres: Vec<Point> = seeds.boxes().iter().map(|b| b.centre()).collect();
+        let children: Vec<Vec<usize>> = (0..sk.len()).map(|i| sk.children(i)).collect();
+        let model = Model::build(&params, seeds, seed_frame, background.as_ref());
+        let joints = (0..sk.len())
+            .map(|j| {
+                let (motion, seed_dir) = match sk.parents[j] {
+                    None => (
+                        Motion::root(centres[j], &params),
+                        children[j]
+                            .first()
+                            .map_or(0.0, |&c| direction(centres[j], centres[c])),
+                    ),
+                    Some(par) => (
+                        Motion::bone(centres[par], centres[j], &params),
+                        direction(centres[par], centres[j]),
+                    ),
+                };
+                JointState {
+                    motion,
+                    seed_dir,
+                    hidden_run: 0,
+                    last: JointEstimate {
+                        pos: centres[j],
+                        angle_rad: 0.0,
+                        score: 1.0,
+                        status: Status::Seed,
+                    },
+                }
+            })
+            .collect();
+        let plate = background
+            .as_ref()
+            .map_or(Vec::new(), |b| halve_all(&b.plate, LEVELS));
+        Tracker {
+            params,
+            parents: sk.parents.clone(),
+            children,
+            order: sk.topo_order(),
+            model,
+            joints,
+            background,
+            plate,
+            frame_max: Point::new(
+                seed_frame.width().saturating_sub(1) as f32,
+                seed_frame.height().saturating_sub(1) as f32,
+            ),
+            trace: None,
+        }
+    }
+
+    /// Keeps each step's intermediate results from now on (read them with [`Tracker::trace`]).
+    pub fn enable_trace(&mut self) {
+        self.trace = Some(Trace::default());
+    }
+
+    /// The last step's intermediate results, if [`Tracker::enable_trace`] was called.
+    pub fn trace(&self) -> Option<&Trace> {
+        self.trace.as_ref()
+    }
+
+    /// A gap filler for this skeleton, holding at most `fill_gaps_max` frames back.
+    pub fn gap_filler(&self) -> GapFiller {
+        GapFiller::new(
+            self.parents.clone(),
+            self.order.clone(),
+            self.params.fill_gaps_max as usize,
+        )
+    }
+
+    /// The estimates of the last processed frame (the seed frame right after `new`).
+    pub fn current(&self) -> Vec<JointEstimate> {
+        self.joints.iter().map(|j| j.last).collect()
+    }
+
+    /// The frame's views: every pyramid level with the plate's (`plate`: its levels), and the
+    /// brightness gain.
+    fn views<'a>(
+        background: Option<&Background>,
+        plate: &'a [RgbImage],
+        pyr: &'a Pyramid,
+        frame: &RgbImage,
+    ) -> Vec<View<'a>> {
+        let gain = background.map_or(1.0, |b| b.gain(frame));
+        let noise = background.map_or(1.0, |b| b.noise_sigma());
+        let bg_inv = 1.0 / (3.0 * (2.0 * noise).powi(2));
+        (0..pyr.levels())
+            .map(|k| View {
+                img: pyr.level(k),
+                plate: plate.get(k).map(|p| Level::new(Image::new(p), k)),
+                gain,
+                bg_inv,
+            })
+            .collect()
+    }
+
+    /// Tracks one frame (the frame after the previous call). Returns every joint's estimate.
+    pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
+        let pred = self.predict();
+        let pyr = Pyramid::new(frame, LEVELS);
+        // The plate's levels are lent to the views while the strips learn.
+        let plate = std::mem::take(&mut self.plate);
+        let views = Self::views(self.background.as_ref(), &plate, &pyr, frame);
+        let judge = views[self.params.judge_level.min(views.len() - 1)];
+        let mut x = self.search(&views, &pred);
+        let searched = self.trace.is_some().then(|| x.clone());
+        self.refine(&views, &pred, &mut x);
+        let refined = self.trace.is_some().then(|| x.clone());
+        let mut fits = self.fits(&judge, &x);
+        let mut evidence = self.evidence(&fits);
+        let none = vec![false; x.len()];
+        self.place_hidden(&pred, &evidence, &none, &mut x);
+        let found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
+        if found.iter().any(|&f| f) {
+            self.refine(&views, &pred, &mut x);
+            fits = self.fits(&judge, &x);
+            evidence = self.evidence(&fits);
+            self.place_hidden(&pred, &evidence, &found, &mut x);
+        }
+        let trace = match (searched, refined) {
+            (Some(searched), Some(refined)) => Some(Trace {
+                predicted: pred.iter().map(|q| q.pos).collect(),
+                searched,
+                refined,
+                evidence: evidence.clone(),
+                reacquired: found,
+            }),
+            _ => None,
+        };
+        let placements = self.update(&pred, &x, &evidence);
+        self.learn(&views, &x, &fits, &evidence, &placements);
+        drop(views);
+        self.plate = plate;
+        if trace.is_some() {
+            self.trace = trace;
+        }
+        self.current()
+    }
+
+    /// Predicted position of every joint (eq. 4.3), parents first.
+    fn predict(&mut self) -> Vec<Prediction> {
+        let mut pred = vec![
+            Prediction {
+                pos: Point::origin(),
+                sigma: 0.0,
+                len_sigma: 0.0,
+            };
+            self.joints.len()
+        ];
+        for &j in &self.order {
+            let parent = self.parents[j].map(|p| pred[p].pos);
+            pred[j] = self.joints[j].motion.predict(parent, self.frame_max);
+        }
+        pred
+    }
+
+    /// Motion models and statuses from the frame's final positions `x` and `evidence`. A bone
+    /// is measured only when both its ends are seen. Returns the placement of every strip whose
+    /// bone was clearly seen, for [`Tracker::learn`].
+    fn update(
+        &mut self,
+        pred: &[Prediction],
+        x: &[Point],
+        evidence: &[f32],
+    ) -> Vec<Option<Placement>> {
+        let p = &self.params;
+        let seen = |j: usize| evidence[j] >= p.seen_share;
+        for &j in &self.order {
+            let e = evidence[j];
+            let par = self.parents[j];
+            let state = &mut self.joints[j];
+            let measured = seen(j) && par.is_none_or(seen);
+            if measured {
+                let sigma = p.meas_sigma_px / e.max(0.1);
+                state.motion.update(x[j], par.map(|q| x[q]), sigma);
+            } else {
+                state.motion.coast();
+            }
+            let stretched = par.is_some_and(|q| {
+                let expected = (pred[j].pos - pred[q].pos).norm().max(1.0);
+                ((x[j] - x[q]).norm() / expected - 1.0).abs() > p.bone_tolerance
+            });
+            let status = if seen(j) {
+                state.hidden_run = 0;
+                if e >= p.ok_share && !(measured && stretched) {
+                    Status::Ok
+                } else {
+                    Status::Low
+                }
+            } else {
+                state.hidden_run += 1;
+                if state.hidden_run > p.lost_after_frames {
+                    Status::Lost
+                } else {
+                    Status::Occluded
+                }
+            };
+            let dir = match par {
+                Some(q) => Some(direction(x[q], x[j])),
+                None if p.rotate_roots => self.children[j].first().map(|&c| direction(x[j], x[c])),
+                None => None,
+            };
+            let angle_rad = dir.map_or(0.0, |d| {
+                unwrap_angle(state.last.angle_rad, d - state.seed_dir)
+            });
+            state.last = JointEstimate {
+                pos: x[j],
+                angle_rad,
+                score: e.clamp(0.0, 1.0),
+                status,
+            };
+        }
+        self.model
+            .strips
+            .iter()
+            .map(|s| {
+                (seen(s.parent) && seen(s.child)).then(|| s.placement(x[s.parent], x[s.child]))
+            })
+            .collect()
+    }
+
+    /// Strips whose bone was seen learn from the frame (see [`Strip::learn`]); `placements`
+    /// says where the other seen bones lay, for telling their pixels apart.
+    fn learn(
+        &mut self,
+        views: &[View],
+        x: &[Point],
+        fits: &[Fit],
+        evidence: &[f32],
+        placements: &[Option<Placement>],
+    ) {
+        let p = &self.params;
+        let bounds = (0.75 * self.model.sigma, 2.0 * self.model.sigma);
+        let seen =
+            |s: &Strip| evidence[s.parent] >= p.seen_share && evidence[s.child] >= p.seen_share;
+        let clear: Vec<Option<Placement>> = placements
+            .iter()
+            .zip(fits)
+            .map(|(pl, f)| pl.filter(|_| f.inliers >= p.ok_share))
+            .collect();
+        for (s, f) in self.model.strips.iter_mut().zip(fits) {
+            if seen(s) {
+                let pose = (x[s.parent], x[s.child]);
+                s.learn(
+                    views,
+                    pose,
+                    &clear,
+                    p.update_rate,
+                    p.anchor_weight,
+                    bounds,
+                    f,
+                );
+            }
+        }
+    }
+
+    /// Joint `j` and everything below it.
+    pub(super) fn descendants_and_self(&self, j: usize) -> Vec<usize> {
+        let mut out = vec![j];
+        let mut k = 0;
+        while k < out.len() {
+            out.extend(self.children[out[k]].iter().copied());
+            k += 1;
+        }
+        out
+    }
+
+    /// Diagnostics: how the strip of the bone ending at joint `child` fits `frame` (on the
+    /// judging level) with its parent at `p` and the child at `c`.
+    pub fn fit_bone(&self, frame: &RgbImage, child: usize, p: Point, c: Point) -> Option<Fit> {
+        let s = &self.model.strips[self.model.strip_of[child]?];
+        let pyr = Pyramid::new(frame, LEVELS);
+        let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
+        Some(s.fit(&views[self.params.judge_level.min(views.len() - 1)], p, c))
+    }
+
+    /// Diagnostics: [`Strip::probe`] (full resolution) of the bone ending at joint `child`.
+    pub fn probe_bone(
+        &self,
+        frame: &RgbImage,
+        child: usize,
+        p: Point,
+        c: Point,
+    ) -> Vec<(f32, f32, f32, f32)> {
+        let pyr = Pyramid::new(frame, 1);
+        let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
+        self.model.strip_of[child].map_or(Vec::new(), |si| {
+            self.model.strips[si].probe(&views[0], p, c)
+        })
+    }
+
+    /// One line per strip for diagnostics (see [`Strip::summary`]).
+    pub fn strip_summaries(&self) -> Vec<String> {
+        self.model.strips.iter().map(|s| s.summary()).collect()
+    }
+}
