@@ -19,11 +19,14 @@ fn main() -> anyhow::Result<()> {
     let from: usize = get("--from").map_or(0, |v| v.parse().unwrap());
     let to: usize = get("--to").map_or(usize::MAX, |v| v.parse().unwrap());
     let thr: f32 = get("--thr").map_or(3.0, |v| v.parse().unwrap());
+    let seed: u64 = get("--seed").map_or(1, |v| v.parse().unwrap());
+    let (width, height) =
+        get("--size").map_or((640, 360), |v| mocap2d::cli::parse_size(&v).unwrap());
     let clip = render(&SynthOptions {
         scenario: sc,
-        width: 640,
-        height: 360,
-        seed: 1,
+        width,
+        height,
+        seed,
         frames,
     });
     let frames_img: Vec<_> = if args.iter().any(|a| a == "--mp4") {

@@ -2,7 +2,7 @@
 //! to it, out to the limb's edge and past its ends), one patch per lone joint, and which strips
 //! touch which joint.
 
-use super::pixels::{Pyramid, LEVELS};
+use super::pixels::{Pyramid, MAX_LEVELS};
 use super::strip::{Extent, Shape, Strip, StripSpec};
 use super::TrackParams;
 use crate::background::Background;
@@ -27,6 +27,16 @@ pub(super) struct Model {
     pub touching: Vec<Vec<(usize, End)>>,
     /// The colour scale the strips start with (levels per channel).
     pub sigma: f32,
+    /// Pyramid levels matched on (see [`pyramid_levels`]).
+    pub levels: usize,
+}
+
+/// How many pyramid levels to match on for joint rectangles whose smaller side is `side` px:
+/// as many as keep that side at least `coarse_px` px on the coarsest one (1 to
+/// [`MAX_LEVELS`]): coarser than that, a limb is a blur of its neighbours.
+pub(super) fn pyramid_levels(side: f32, coarse_px: f32) -> usize {
+    let halvings = (side / coarse_px.max(1.0)).log2().floor();
+    (1 + halvings.max(0.0) as usize).min(MAX_LEVELS)
 }
 
 /// Half-width (px) of the limb along the bone `p → c` on the seed frame: the median distance
@@ -72,7 +82,9 @@ impl Model {
         let boxes = seeds.boxes();
         let centres: Vec<Point> = boxes.iter().map(|b| b.centre()).collect();
         let children: Vec<Vec<usize>> = (0..n).map(|i| sk.children(i)).collect();
-        let img = Pyramid::new(seed_frame, LEVELS);
+        let side = boxes.iter().map(|b| b.w.min(b.h)).min().unwrap_or(1) as f32;
+        let levels = pyramid_levels(side, params.coarse_box_px);
+        let img = Pyramid::new(seed_frame, levels);
         let half_box = |j: usize| 0.5 * boxes[j].w.max(boxes[j].h) as f32;
         let bones: Vec<(usize, usize)> = sk
             .bones()
@@ -198,6 +210,21 @@ impl Model {
             strip_of,
             touching,
             sigma,
+            levels,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coarser_levels_only_while_the_rectangles_stay_big_enough() {
+        assert_eq!(pyramid_levels(4.0, 5.0), 1);
+        assert_eq!(pyramid_levels(15.0, 5.0), 2);
+        assert_eq!(pyramid_levels(21.0, 5.0), 3);
+        assert_eq!(pyramid_levels(43.0, 5.0), 4);
+        assert_eq!(pyramid_levels(400.0, 5.0), MAX_LEVELS);
     }
 }

@@ -65,6 +65,9 @@ pub struct TrackParams {
     pub max_samples: usize,
     /// Most samples per bone in the coarse search.
     pub coarse_samples: usize,
+    /// Smallest side (px) the joint rectangles keep on the coarsest pyramid level matched on:
+    /// with 21-px rectangles that is the quarter-resolution level, with 15-px ones the half.
+    pub coarse_box_px: f32,
     /// Gauss–Newton iterations of the refinement, per pyramid level.
     pub iterations: usize,
     /// Finest pyramid level the refinement goes down to (0: full resolution).
@@ -89,8 +92,8 @@ pub struct TrackParams {
     /// Pyramid level (0: full resolution) on which bones are judged seen or hidden: a coarser
     /// level averages out sensor noise and compression artefacts.
     pub judge_level: usize,
-    /// A hidden bone found again on the circle around its parent is taken when this share of
-    /// its samples fit.
+    /// A hidden bone found again around its parent is taken when its samples fit at least this
+    /// share as well as they do on frames where the bone is seen (overall and at its child end).
     pub reacquire_share: f32,
     /// A seen joint whose bone length differs from the predicted one by more than this share is
     /// `low`.
@@ -133,6 +136,7 @@ impl Default for TrackParams {
             foreign_tolerance: 20.0,
             max_samples: 256,
             coarse_samples: 48,
+            coarse_box_px: 5.0,
             iterations: 8,
             finest_level: 0,
             meas_sigma_px: 0.5,
@@ -144,7 +148,7 @@ impl Default for TrackParams {
             seen_share: 0.3,
             ok_share: 0.6,
             judge_level: 1,
-            reacquire_share: 0.6,
+            reacquire_share: 0.75,
             bone_tolerance: 0.3,
             rotate_roots: false,
             fill_gaps_max: 120,

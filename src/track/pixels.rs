@@ -9,8 +9,9 @@ use image::RgbImage;
 /// An RGB colour or colour derivative, 0–255 per channel, as `f32`.
 pub type Rgb = [f32; 3];
 
-/// Pyramid levels the tracker uses: full resolution, half and quarter.
-pub const LEVELS: usize = 3;
+/// Most pyramid levels the tracker uses (full resolution, half, quarter, eighth); how many it
+/// does use depends on the size of the joints' rectangles.
+pub const MAX_LEVELS: usize = 4;
 
 /// A borrowed RGB frame.
 #[derive(Clone, Copy)]

@@ -21,7 +21,7 @@
 //! pixel that turns out to move with another bone (the torso showing where the far arm is
 //! hidden behind it on the seed frame) fades out of every cost.
 
-use super::pixels::{Level, Pyramid, Rgb, LEVELS};
+use super::pixels::{Level, Pyramid, Rgb, MAX_LEVELS};
 
 /// What a strip is matched against: one pyramid level of the frame, the same level of the
 /// clean plate when there is one, and the frame's brightness gain over the plate.
@@ -207,11 +207,11 @@ pub struct Strip {
     pub extent: Extent,
     samples: Vec<Sample>,
     /// Seed colour of each sample, per pyramid level.
-    anchor: Vec<[Rgb; LEVELS]>,
+    anchor: Vec<[Rgb; MAX_LEVELS]>,
     /// Running colour of each sample (updated on confident frames), per level.
-    running: Vec<[Rgb; LEVELS]>,
+    running: Vec<[Rgb; MAX_LEVELS]>,
     /// The colour matched: `anchor_weight`·anchor + the rest running, per level.
-    template: Vec<[Rgb; LEVELS]>,
+    template: Vec<[Rgb; MAX_LEVELS]>,
     /// Reliability of each sample, 0 to 1 (see [`Strip::learn`]).
     rel: Vec<f32>,
     /// Every `coarse_step`-th sample is used in the coarse search.
@@ -311,9 +311,9 @@ impl Strip {
                         continue;
                     }
                 }
-                let mut rgb = [[0.0; 3]; LEVELS];
+                let mut rgb = [[0.0; 3]; MAX_LEVELS];
                 let mut inside = true;
-                for (k, c) in rgb.iter_mut().enumerate() {
+                for (k, c) in rgb.iter_mut().enumerate().take(frame.levels()) {
                     match frame.level(k).bilinear(x, y) {
                         Some(v) => *c = v,
                         None => inside = false,
@@ -459,6 +459,13 @@ impl Strip {
                 self.rel[k] = self.rel[k].min(0.5);
             }
         }
+    }
+
+    /// Whether `fit` looks like this bone found: at least `share` of what fits on a frame where
+    /// it is seen (its [`Strip::typical`] shares), overall and at its child end.
+    pub fn found(&self, fit: &Fit, share: f32) -> bool {
+        let typical = 0.5 * (self.typical.0 + self.typical.1);
+        fit.inliers >= share * typical && fit.child_end >= share * self.typical.1
     }
 
     /// Number of samples.
@@ -754,7 +761,7 @@ impl Strip {
                 continue;
             };
             if self.residual(k, 0, col, gain, inv) < INLIER_E {
-                for lv in 0..LEVELS.min(views.len()) {
+                for lv in 0..MAX_LEVELS.min(views.len()) {
                     let seen = if lv == 0 {
                         Some(col)
                     } else {
@@ -783,7 +790,7 @@ impl Strip {
                     self.rel[k] -= (2.0 * rate).min(1.0) * self.rel[k];
                 }
             }
-            for lv in 0..LEVELS {
+            for lv in 0..MAX_LEVELS.min(views.len()) {
                 for ch in 0..3 {
                     self.template[k][lv][ch] = anchor_weight * self.anchor[k][lv][ch]
                         + (1.0 - anchor_weight) * self.running[k][lv][ch];
@@ -800,6 +807,7 @@ impl Strip {
 #[cfg(test)]
 mod tests {
     use super::*;
+    const LEVELS: usize = 3;
     use image::RgbImage;
 
     /// A smooth 80×60 frame: a bar from `p` to `c`, 5 px half-width with soft edges, coloured

@@ -4,7 +4,7 @@
 use super::gapfill::GapFiller;
 use super::model::Model;
 use super::motion::{Motion, Prediction};
-use super::pixels::{halve_all, Image, Level, Pyramid, LEVELS};
+use super::pixels::{halve_all, Image, Level, Pyramid};
 use super::strip::{Fit, Placement, Strip, View};
 use super::{JointEstimate, Status, TrackParams};
 use crate::background::Background;
@@ -94,7 +94,7 @@ impl Tracker {
             .collect();
         let plate = background
             .as_ref()
-            .map_or(Vec::new(), |b| halve_all(&b.plate, LEVELS));
+            .map_or(Vec::new(), |b| halve_all(&b.plate, model.levels));
         Tracker {
             params,
             parents: sk.parents.clone(),
@@ -160,7 +160,7 @@ impl Tracker {
     /// Tracks one frame (the frame after the previous call). Returns every joint's estimate.
     pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
         let pred = self.predict();
-        let pyr = Pyramid::new(frame, LEVELS);
+        let pyr = Pyramid::new(frame, self.model.levels);
         // The plate's levels are lent to the views while the strips learn.
         let plate = std::mem::take(&mut self.plate);
         let views = Self::views(self.background.as_ref(), &plate, &pyr, frame);
@@ -332,7 +332,7 @@ impl Tracker {
     /// judging level) with its parent at `p` and the child at `c`.
     pub fn fit_bone(&self, frame: &RgbImage, child: usize, p: Point, c: Point) -> Option<Fit> {
         let s = &self.model.strips[self.model.strip_of[child]?];
-        let pyr = Pyramid::new(frame, LEVELS);
+        let pyr = Pyramid::new(frame, self.model.levels);
         let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
         Some(s.fit(&views[self.params.judge_level.min(views.len() - 1)], p, c))
     }
