@@ -96,7 +96,7 @@ impl Tracker {
         let (best, _) = grid_min(&w, |q| s.coarse_cost(v, x[par], at(q)));
         let c = at(best);
         let fit = s.fit(judge, x[par], c);
-        s.found(&fit, p.reacquire_share).then_some(c)
+        s.found(&fit, p.reacquire_share, false).then_some(c)
     }
 
     /// Looks for hidden joint `j` whose parent is hidden too, with the grandparent placed: the
@@ -135,7 +135,7 @@ impl Tracker {
         });
         let (b, c) = at(best);
         let fit = s.fit(judge, b, c);
-        s.found(&fit, p.reacquire_share).then_some((b, c))
+        s.found(&fit, p.reacquire_share, true).then_some((b, c))
     }
 
     /// Looks for every hidden joint (parents first), moving what is found and everything

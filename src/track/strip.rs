@@ -462,10 +462,12 @@ impl Strip {
     }
 
     /// Whether `fit` looks like this bone found: at least `share` of what fits on a frame where
-    /// it is seen (its [`Strip::typical`] shares), overall and at its child end.
-    pub fn found(&self, fit: &Fit, share: f32) -> bool {
+    /// it is seen (its [`Strip::typical`] shares), at its child end and, unless `parent_hidden`,
+    /// overall.
+    pub fn found(&self, fit: &Fit, share: f32, parent_hidden: bool) -> bool {
         let typical = 0.5 * (self.typical.0 + self.typical.1);
-        fit.inliers >= share * typical && fit.child_end >= share * self.typical.1
+        (parent_hidden || fit.inliers >= share * typical)
+            && fit.child_end >= share * self.typical.1
     }
 
     /// Number of samples.
