@@ -78,9 +78,15 @@ impl Tracker {
     }
 
     /// Looks for hidden joint `j`'s bone all around its parent (lengths within 15 % of its
-    /// current one) on the search view `v`, judged on `judge`. Returns the child position when
-    /// enough of the bone fits there.
-    pub(super) fn reacquire(&self, v: &View, judge: &View, j: usize, x: &[Point]) -> Option<Point> {
+    /// current one), as it was laid and mirrored, on the search view `v`, judged on `judge`.
+    /// Returns the child position and whether the bone is mirrored when enough of it fits.
+    pub(super) fn reacquire(
+        &self,
+        v: &View,
+        judge: &View,
+        j: usize,
+        x: &[Point],
+    ) -> Option<(Point, bool)> {
         let p = &self.params;
         let s = &self.model.strips[self.model.strip_of[j]?];
         let par = self.parents[j]?;
@@ -93,23 +99,32 @@ impl Tracker {
             step: [step, 0.15],
         };
         let at = |q: [f32; 2]| x[par] + Vector::new(q[0].cos(), q[0].sin()) * q[1].exp();
-        let (best, _) = grid_min(&w, |q| s.coarse_cost(v, x[par], at(q)));
-        let c = at(best);
-        let fit = s.fit(judge, x[par], c);
-        s.found(&fit, p.reacquire_share, false).then_some(c)
+        let mut found: Option<(Point, bool, f32)> = None;
+        for m in [s.mirrored, !s.mirrored] {
+            let (best, _) = grid_min(&w, |q| s.coarse_cost_as(v, x[par], at(q), m));
+            let c = at(best);
+            let fit = s.fit_as(judge, x[par], c, m);
+            if s.found(&fit, p.reacquire_share, false)
+                && found.is_none_or(|f| fit.child_end > f.2 + 0.1)
+            {
+                found = Some((c, m, fit.child_end));
+            }
+        }
+        found.map(|(c, m, _)| (c, m))
     }
 
     /// Looks for hidden joint `j` whose parent is hidden too, with the grandparent placed: the
     /// parent on the circle around the grandparent (its bone's current length), `j` on the
     /// circle around the parent, scored by the bone between them on `v` and judged on `judge`.
-    /// Returns the parent's and `j`'s positions when enough of that bone fits.
+    /// Returns the parent's and `j`'s positions and whether the bone is mirrored when enough
+    /// of that bone fits (tried as it was laid and mirrored).
     pub(super) fn reacquire_chain(
         &self,
         v: &View,
         judge: &View,
         j: usize,
         x: &[Point],
-    ) -> Option<(Point, Point)> {
+    ) -> Option<(Point, Point, bool)> {
         let p = &self.params;
         let s = &self.model.strips[self.model.strip_of[j]?];
         let par = self.parents[j]?;
@@ -129,19 +144,28 @@ impl Tracker {
             let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;
             (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
         };
-        let (best, _) = grid_min(&w, |q| {
-            let (b, c) = at(q);
-            s.coarse_cost(v, b, c)
-        });
-        let (b, c) = at(best);
-        let fit = s.fit(judge, b, c);
-        s.found(&fit, p.reacquire_share, true).then_some((b, c))
+        let mut found: Option<(Point, Point, bool, f32)> = None;
+        for m in [s.mirrored, !s.mirrored] {
+            let (best, _) = grid_min(&w, |q| {
+                let (b, c) = at(q);
+                s.coarse_cost_as(v, b, c, m)
+            });
+            let (b, c) = at(best);
+            let fit = s.fit_as(judge, b, c, m);
+            if s.found(&fit, p.reacquire_share, true)
+                && found.is_none_or(|f| fit.child_end > f.3 + 0.1)
+            {
+                found = Some((b, c, m, fit.child_end));
+            }
+        }
+        found.map(|(b, c, m, _)| (b, c, m))
     }
 
     /// Looks for every hidden joint (parents first), moving what is found and everything
-    /// below it. Returns which joints were re-acquired.
+    /// below it, and turning its strip over if it was found mirrored. Returns which joints
+    /// were re-acquired.
     pub(super) fn reacquire_hidden(
-        &self,
+        &mut self,
         views: &[View],
         judge: &View,
         evidence: &[f32],
@@ -150,7 +174,7 @@ impl Tracker {
         let seen_share = self.params.seen_share;
         let v = &views[1.min(views.len() - 1)];
         let mut found = vec![false; x.len()];
-        for &j in &self.order {
+        for j in self.order.clone() {
             let Some(par) = self.parents[j] else {
                 continue;
             };
@@ -158,14 +182,16 @@ impl Tracker {
                 continue;
             }
             if evidence[par] >= seen_share || found[par] {
-                if let Some(c) = self.reacquire(v, judge, j, x) {
+                if let Some((c, m)) = self.reacquire(v, judge, j, x) {
+                    self.set_mirrored(j, m);
                     let d = c - x[j];
                     for k in self.descendants_and_self(j) {
                         x[k] += d;
                     }
                     found[j] = true;
                 }
-            } else if let Some((b, c)) = self.reacquire_chain(v, judge, j, x) {
+            } else if let Some((b, c, m)) = self.reacquire_chain(v, judge, j, x) {
+                self.set_mirrored(j, m);
                 // The parent is hidden too (an elbow behind the torso): both are placed by the
                 // bone between them, as far as it shows; the parent's other children follow it.
                 let (db, dc) = (b - x[par], c - x[j]);
@@ -181,6 +207,15 @@ impl Tracker {
             }
         }
         found
+    }
+}
+
+impl Tracker {
+    /// Lays the strip of the bone ending at joint `j` mirrored or not.
+    fn set_mirrored(&mut self, j: usize, mirrored: bool) {
+        if let Some(si) = self.model.strip_of[j] {
+            self.model.strips[si].mirrored = mirrored;
+        }
     }
 }
 

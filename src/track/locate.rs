@@ -182,6 +182,28 @@ impl Tracker {
         }
     }
 
+    /// Turns over every bone strip that fits clearly better mirrored across its axis (the
+    /// character turned round), on view `v` with the joints at `x`; `fits` are the strips' fits
+    /// there and are updated. Returns whether any strip turned.
+    pub(super) fn flip_mirrored(&mut self, v: &View, x: &[Point], fits: &mut [Fit]) -> bool {
+        let ok = self.params.ok_share;
+        let mut turned = false;
+        for (s, f) in self.model.strips.iter_mut().zip(fits.iter_mut()) {
+            if s.shape != Shape::Bone || f.inliers >= ok {
+                continue;
+            }
+            s.mirrored = !s.mirrored;
+            let g = s.fit(v, x[s.parent], x[s.child]);
+            if g.inliers > f.inliers + 0.15 {
+                *f = g;
+                turned = true;
+            } else {
+                s.mirrored = !s.mirrored;
+            }
+        }
+        turned
+    }
+
     /// Every strip's fit with the joints at `x`, on view `v`.
     pub(super) fn fits(&self, v: &View, x: &[Point]) -> Vec<Fit> {
         let strips = &self.model.strips;

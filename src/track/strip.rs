@@ -228,6 +228,9 @@ pub struct Strip {
     /// Whether the clean plate may speak against this strip's samples: not where it holds the
     /// character itself (see [`Strip::sample`]).
     trust_plate: bool,
+    /// Laid mirrored across the bone's axis (`v` → `−v`): a character that turned round shows
+    /// its limbs from the other side.
+    pub mirrored: bool,
 }
 
 /// How to sample a strip on the seed frame.
@@ -283,6 +286,7 @@ impl Strip {
                 0.0
             },
             trust_plate: true,
+            mirrored: false,
         };
         let (lo, hi) = match shape {
             Shape::Bone => (-extent.ext_a, len + extent.ext_b),
@@ -483,6 +487,11 @@ impl Strip {
     /// Where the samples land for the parent joint at `p` and the child at `c`.
     #[inline]
     pub fn placement(&self, p: Point, c: Point) -> Placement {
+        self.placement_as(p, c, self.mirrored)
+    }
+
+    /// [`Strip::placement`], mirrored or not as asked.
+    pub fn placement_as(&self, p: Point, c: Point, mirrored: bool) -> Placement {
         match self.shape {
             Shape::Patch => Placement {
                 o: p.coords,
@@ -505,7 +514,7 @@ impl Strip {
                     o: p.coords,
                     a: d,
                     u,
-                    n: Vector::new(-u.y, u.x),
+                    n: Vector::new(-u.y, u.x) * if mirrored { -1.0 } else { 1.0 },
                     len,
                     w,
                 }
@@ -560,7 +569,12 @@ impl Strip {
     /// Mean robust cost (0–1) over the coarse samples for the pose `(p, c)` on view `v`: the
     /// search cost.
     pub fn coarse_cost(&self, v: &View, p: Point, c: Point) -> f32 {
-        let place = self.placement(p, c);
+        self.coarse_cost_as(v, p, c, self.mirrored)
+    }
+
+    /// [`Strip::coarse_cost`] laid mirrored or not as asked.
+    pub fn coarse_cost_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> f32 {
+        let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
         let (mut sum, mut n) = (0.0, 0.0);
         let mut k = 0;
@@ -586,7 +600,12 @@ impl Strip {
 
     /// Fit statistics over all samples for the pose `(p, c)` on view `v`.
     pub fn fit(&self, v: &View, p: Point, c: Point) -> Fit {
-        let place = self.placement(p, c);
+        self.fit_as(v, p, c, self.mirrored)
+    }
+
+    /// [`Strip::fit`] laid mirrored or not as asked.
+    pub fn fit_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> Fit {
+        let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
         let (mut cost, mut inl, mut pe, mut ce) = (0.0, 0.0, 0.0, 0.0);
         let (mut wsum, mut pw, mut cw) = (0.0, 0.0, 0.0);

@@ -170,6 +170,10 @@ impl Tracker {
         self.refine(&views, &pred, &mut x);
         let refined = self.trace.is_some().then(|| x.clone());
         let mut fits = self.fits(&judge, &x);
+        if self.flip_mirrored(&judge, &x, &mut fits) {
+            self.refine(&views, &pred, &mut x);
+            fits = self.fits(&judge, &x);
+        }
         let mut evidence = self.evidence(&fits);
         let none = vec![false; x.len()];
         self.place_hidden(&pred, &evidence, &none, &mut x);
