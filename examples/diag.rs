@@ -62,6 +62,7 @@ fn main() -> anyhow::Result<()> {
     let mut good = 0;
     let mut per = vec![(0usize, 0usize); names.len()];
     let mut miss_vis = [0usize; 3];
+    let (mut truth_better, mut est_better) = (0usize, 0usize);
     let mut filler = t.gap_filler();
     let mut filled: Vec<(u64, Vec<mocap2d::track::JointEstimate>)> = filler.push(0, t.current());
     let mut out = String::from("frame,joint,x,y,angle,score,status\n");
@@ -178,6 +179,16 @@ fn main() -> anyhow::Result<()> {
                 } else {
                     2
                 }] += 1;
+                if v >= 0.7 {
+                    if let Some(par) = clip.parents[j] {
+                        let gp = |k: usize| mocap2d::geom::Point::new(clip.gt[f][k].0, clip.gt[f][k].1);
+                        let ft = t.fit_bone(&frames_img[f], j, gp(par), gp(j));
+                        let fe = t.fit_bone(&frames_img[f], j, est[par].pos, est[j].pos);
+                        if let (Some(ft), Some(fe)) = (ft, fe) {
+                            if ft.cost < fe.cost { truth_better += 1; } else { est_better += 1; }
+                        }
+                    }
+                }
             }
             if e(est[j].pos) > thr || (f >= from && f <= to && e(tr.refined[j]) > thr) {
                 lines.push(format!(
@@ -206,6 +217,7 @@ fn main() -> anyhow::Result<()> {
             }
         }
     }
+    println!("visible misses: truth fits better {truth_better}, estimate fits better {est_better}");
     println!("misses by visibility (hidden / partly / visible): {miss_vis:?}; after gap fill PCK@5 {:.1}%", 100.0 * fg as f32 / ft as f32);
     let worst: Vec<String> = (0..names.len())
         .filter(|&j| per[j].1 < per[j].0)

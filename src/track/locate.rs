@@ -100,6 +100,7 @@ impl Tracker {
         let (a0, l0) = (d.y.atan2(d.x), len.ln());
         let half_a = (p.search_sigmas * pred.sigma)
             .max(p.search_min_px / len)
+            .max(p.angle_min_deg.to_radians())
             .min(p.angle_max_deg.to_radians());
         let half_l = (p.search_sigmas * pred.len_sigma).clamp(p.stretch_min, p.stretch_max);
         let w = Window {

@@ -18,7 +18,8 @@ pub struct TrackParams {
     /// A search moves a bone off its prediction only if that lowers its mean robust colour cost
     /// (0–1) by more than this.
     pub move_evidence: f32,
-    /// Widest angle window of a bone, each side of the prediction (degrees).
+    /// Narrowest and widest angle window of a bone, each side of the prediction (degrees).
+    pub angle_min_deg: f32,
     pub angle_max_deg: f32,
     /// Narrowest and widest length window of a bone, each side of the prediction (share of its
     /// length).
@@ -116,6 +117,7 @@ impl Default for TrackParams {
             search_sigmas: 3.0,
             search_step_px: 2.0,
             move_evidence: 0.03,
+            angle_min_deg: 20.0,
             angle_max_deg: 60.0,
             stretch_min: 0.08,
             stretch_max: 0.35,
