@@ -206,16 +206,33 @@ fn main() -> anyhow::Result<()> {
         }
     }
     std::fs::write(format!("/tmp/diag_{}.csv", sc.name()), out)?;
+    let tm = t.timings();
+    let ms = |s: f64| 1000.0 * s / tm.frames.max(1) as f64;
+    println!(
+        "ms/frame: pyramid {:.2} search {:.2} refine {:.2} judge {:.2} reacquire {:.2} learn {:.2}",
+        ms(tm.pyramid), ms(tm.search), ms(tm.refine), ms(tm.judge), ms(tm.reacquire), ms(tm.learn)
+    );
     filled.extend(filler.finish());
     let (mut fg, mut ft) = (0, 0);
+    let mut spans = vec![(0usize, 0usize); filled.len() / 50 + 1];
     for (f, est) in &filled {
         for j in 0..names.len() {
             let g = clip.gt[*f as usize][j];
             ft += 1;
+            spans[*f as usize / 50].1 += 1;
             if (est[j].pos.x - g.0).hypot(est[j].pos.y - g.1) <= 5.0 {
                 fg += 1;
+                spans[*f as usize / 50].0 += 1;
             }
         }
+    }
+    if filled.len() > 150 {
+        let s: Vec<String> = spans
+            .iter()
+            .enumerate()
+            .map(|(i, (g, t))| format!("{}:{:.0}", i * 50, 100.0 * *g as f32 / (*t).max(1) as f32))
+            .collect();
+        println!("PCK@5 per 50 frames: {}", s.join(" "));
     }
     println!("visible misses: truth fits better {truth_better}, estimate fits better {est_better}");
     println!("misses by visibility (hidden / partly / visible): {miss_vis:?}; after gap fill PCK@5 {:.1}%", 100.0 * fg as f32 / ft as f32);

@@ -115,7 +115,8 @@ impl Tracker {
 
     /// Looks for hidden joint `j` whose parent is hidden too, with the grandparent placed: the
     /// parent on the circle around the grandparent (its bone's current length), `j` on the
-    /// circle around the parent, scored by the bone between them on `v` and judged on `judge`.
+    /// circle around the parent, scored by the bone between them on `v` (a coarse level: the
+    /// grid is the square of a circle) and judged on `judge`.
     /// Returns the parent's and `j`'s positions and whether the bone is mirrored when enough
     /// of that bone fits (tried as it was laid and mirrored).
     pub(super) fn reacquire_chain(
@@ -136,8 +137,8 @@ impl Tracker {
             centre: [d1.y.atan2(d1.x), d2.y.atan2(d2.x)],
             half: [PI, PI],
             step: [
-                (p.search_step_px / l1).clamp(1f32.to_radians(), 5f32.to_radians()),
-                (p.search_step_px / l2).clamp(2f32.to_radians(), 5f32.to_radians()),
+                (p.search_step_px * v.img.scale / l1).clamp(2f32.to_radians(), 10f32.to_radians()),
+                (p.search_step_px * v.img.scale / l2).clamp(2f32.to_radians(), 10f32.to_radians()),
             ],
         };
         let at = |q: [f32; 2]| {
@@ -161,9 +162,9 @@ impl Tracker {
         found.map(|(b, c, m, _)| (b, c, m))
     }
 
-    /// Looks for every hidden joint (parents first), moving what is found and everything
-    /// below it, and turning its strip over if it was found mirrored. Returns which joints
-    /// were re-acquired.
+    /// Looks for hidden joints (parents first; each every `reacquire_every` frames), moving
+    /// what is found and everything below it, and turning its strip over if it was found
+    /// mirrored. Returns which joints were re-acquired.
     pub(super) fn reacquire_hidden(
         &mut self,
         views: &[View],
@@ -172,13 +173,15 @@ impl Tracker {
         x: &mut [Point],
     ) -> Vec<bool> {
         let seen_share = self.params.seen_share;
+        let every = self.params.reacquire_every.max(1) as usize;
         let v = &views[1.min(views.len() - 1)];
         let mut found = vec![false; x.len()];
         for j in self.order.clone() {
             let Some(par) = self.parents[j] else {
                 continue;
             };
-            if evidence[j] >= seen_share {
+            // Hidden joints take turns: each is looked for every `every` frames.
+            if evidence[j] >= seen_share || (self.frame_count() + j) % every != 0 {
                 continue;
             }
             if evidence[par] >= seen_share || found[par] {

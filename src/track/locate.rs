@@ -67,14 +67,20 @@ impl Tracker {
             half: [radius, radius],
             step: [step, step],
         };
-        let (best, _) = grid_min(&w, |q| {
-            let d = Vector::new(q[0], q[1]);
-            let colour: f32 = strips
+        let colour = |d: Vector| {
+            strips
                 .iter()
                 .map(|s| s.coarse_cost(v, x[s.parent] + d, x[s.child] + d))
                 .sum::<f32>()
-                / strips.len() as f32;
-            colour + p.geo_weight * d.norm_squared() / (radius * radius)
+                / strips.len() as f32
+        };
+        let typical = strips.iter().map(|s| s.typical_cost[v.img.k]).sum::<f32>() / strips.len() as f32;
+        if colour(Vector::zeros()) < typical + p.search_skip_cost {
+            return Vector::zeros();
+        }
+        let (best, _) = grid_min(&w, |q| {
+            let d = Vector::new(q[0], q[1]);
+            colour(d) + p.geo_weight * d.norm_squared() / (radius * radius)
         });
         Vector::new(best[0], best[1])
     }
@@ -121,11 +127,20 @@ impl Tracker {
             }
             sum / n
         };
+        let here = colour(guess);
+        let mut typical = s.typical_cost[v.img.k];
+        for &(bi, _) in below {
+            typical += self.model.strips[bi].typical_cost[v.img.k];
+        }
+        if here < typical / n + p.search_skip_cost {
+            // As good as it gets: the refinement does the rest.
+            return guess;
+        }
         let (best, _) = grid_min(&w, |q| {
             let geo = ((q[0] - a0) / half_a).powi(2) + ((q[1] - l0) / half_l).powi(2);
             colour(at(q)) + p.geo_weight * geo
         });
-        if colour(at(best)) < colour(guess) - p.move_evidence {
+        if colour(at(best)) < here - p.move_evidence {
             at(best)
         } else {
             guess

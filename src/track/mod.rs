@@ -35,7 +35,7 @@ pub mod strip;
 mod tracker;
 
 pub use params::TrackParams;
-pub use tracker::{Trace, Tracker};
+pub use tracker::{Timings, Trace, Tracker};
 
 use crate::geom::Point;
 use serde::{Deserialize, Serialize};

@@ -18,6 +18,10 @@ pub struct TrackParams {
     /// A search moves a bone off its prediction only if that lowers its mean robust colour cost
     /// (0–1) by more than this.
     pub move_evidence: f32,
+    /// No search where the prediction costs no more than this over what the bones cost when in
+    /// place (mean robust colour cost, 0–1, learnt as the clip goes): the refinement alone
+    /// takes it from there.
+    pub search_skip_cost: f32,
     /// Narrowest and widest angle window of a bone, each side of the prediction (degrees).
     pub angle_min_deg: f32,
     pub angle_max_deg: f32,
@@ -96,6 +100,8 @@ pub struct TrackParams {
     /// A hidden bone found again around its parent is taken when its samples fit at least this
     /// share as well as they do on frames where the bone is seen (overall and at its child end).
     pub reacquire_share: f32,
+    /// A hidden joint is looked for every this many frames (hidden joints take turns).
+    pub reacquire_every: u32,
     /// A seen joint whose bone length differs from the predicted one by more than this share is
     /// `low`.
     pub bone_tolerance: f32,
@@ -117,6 +123,7 @@ impl Default for TrackParams {
             search_sigmas: 3.0,
             search_step_px: 2.0,
             move_evidence: 0.03,
+            search_skip_cost: 0.05,
             angle_min_deg: 20.0,
             angle_max_deg: 60.0,
             stretch_min: 0.08,
@@ -139,7 +146,7 @@ impl Default for TrackParams {
             max_samples: 256,
             coarse_samples: 48,
             coarse_box_px: 5.0,
-            iterations: 8,
+            iterations: 4,
             finest_level: 0,
             meas_sigma_px: 0.5,
             speed_sigma: 10.0,
@@ -151,6 +158,7 @@ impl Default for TrackParams {
             ok_share: 0.6,
             judge_level: 1,
             reacquire_share: 0.75,
+            reacquire_every: 2,
             bone_tolerance: 0.3,
             rotate_roots: false,
             fill_gaps_max: 120,

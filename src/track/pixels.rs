@@ -76,16 +76,38 @@ impl<'a> Image<'a> {
     /// Bilinear colour at `(x, y)` px and its derivatives along x and y (levels/px), as central
     /// differences of bilinear reads half a pixel either side: continuous in the position, unlike
     /// the gradient of the bilinear interpolant itself, which jumps at every pixel boundary.
+    /// The five reads share one 3×3 block of pixels, read once.
     #[inline(always)]
     pub fn bilinear_grad(&self, x: f32, y: f32) -> Option<(Rgb, Rgb, Rgb)> {
-        let v = self.bilinear(x, y)?;
-        let (l, r) = (self.bilinear(x - 0.5, y)?, self.bilinear(x + 0.5, y)?);
-        let (u, d) = (self.bilinear(x, y - 0.5)?, self.bilinear(x, y + 0.5)?);
-        Some((
-            v,
-            [r[0] - l[0], r[1] - l[1], r[2] - l[2]],
-            [d[0] - u[0], d[1] - u[1], d[2] - u[2]],
-        ))
+        let (xs, ys) = (x - 0.5, y - 0.5);
+        if !(xs >= 0.0 && ys >= 0.0) {
+            return None;
+        }
+        let (x0, y0) = (xs as usize, ys as usize);
+        if x0 + 2 >= self.w || y0 + 2 >= self.h {
+            return None;
+        }
+        // Block offsets: a = fx + (0, 0.5, 1), b = fy + (0, 0.5, 1) within the 3×3 block.
+        let (fx, fy) = (xs - x0 as f32, ys - y0 as f32);
+        let r = self.raw;
+        let row = |j: usize| (y0 + j) * self.w * 3 + x0 * 3;
+        let (r0, r1, r2) = (row(0), row(1), row(2));
+        // Bilinear within the block at (a, b), a, b in [0, 2).
+        let at = |a: f32, b: f32, k: usize| -> f32 {
+            let (i, fa) = if a < 1.0 { (0, a) } else { (1, a - 1.0) };
+            let (rt, rb, fb) = if b < 1.0 { (r0, r1, b) } else { (r1, r2, b - 1.0) };
+            let p = |base: usize, ii: usize| r[base + 3 * ii + k] as f32;
+            let top = p(rt, i) + (p(rt, i + 1) - p(rt, i)) * fa;
+            let bot = p(rb, i) + (p(rb, i + 1) - p(rb, i)) * fa;
+            top + (bot - top) * fb
+        };
+        let (mut v, mut gx, mut gy) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+        for k in 0..3 {
+            v[k] = at(fx + 0.5, fy + 0.5, k);
+            gx[k] = at(fx + 1.0, fy + 0.5, k) - at(fx, fy + 0.5, k);
+            gy[k] = at(fx + 0.5, fy + 1.0, k) - at(fx + 0.5, fy, k);
+        }
+        Some((v, gx, gy))
     }
 }
 
@@ -172,6 +194,8 @@ pub struct Level<'a> {
     pub k: usize,
     /// `2^k`.
     pub scale: f32,
+    /// `2^-k`.
+    pub inv_scale: f32,
     /// `(2^k − 1) / 2`.
     pub offset: f32,
 }
@@ -184,6 +208,7 @@ impl<'a> Level<'a> {
             img,
             k,
             scale,
+            inv_scale: 1.0 / scale,
             offset: 0.5 * (scale - 1.0),
         }
     }
@@ -191,10 +216,7 @@ impl<'a> Level<'a> {
     /// The level's own coordinates of the full-resolution position `(x, y)`.
     #[inline(always)]
     pub fn to_level(&self, x: f32, y: f32) -> (f32, f32) {
-        (
-            (x - self.offset) / self.scale,
-            (y - self.offset) / self.scale,
-        )
+        ((x - self.offset) * self.inv_scale, (y - self.offset) * self.inv_scale)
     }
 
     /// Bilinear colour at the full-resolution position `(x, y)`.
@@ -210,7 +232,7 @@ impl<'a> Level<'a> {
     pub fn bilinear_grad(&self, x: f32, y: f32) -> Option<(Rgb, Rgb, Rgb)> {
         let (lx, ly) = self.to_level(x, y);
         let (v, gx, gy) = self.img.bilinear_grad(lx, ly)?;
-        let s = 1.0 / self.scale;
+        let s = self.inv_scale;
         Some((v, gx.map(|g| g * s), gy.map(|g| g * s)))
     }
 }
@@ -259,6 +281,25 @@ mod tests {
                 "{gx:?} {gy:?}"
             );
         }
+    }
+
+    #[test]
+    fn gradient_is_the_central_difference_of_bilinear_reads() {
+        let img = RgbImage::from_fn(9, 7, |x, y| {
+            image::Rgb([(x * x * 3 + y) as u8, (50 + 7 * x * y) as u8, (200 - 9 * y * y) as u8])
+        });
+        let im = Image::new(&img);
+        for &(x, y) in &[(2.3f32, 3.7f32), (4.5, 2.5), (1.0, 1.0), (6.9, 4.2)] {
+            let (v, gx, gy) = im.bilinear_grad(x, y).unwrap();
+            let b = |x, y| im.bilinear(x, y).unwrap();
+            for k in 0..3 {
+                assert!((v[k] - b(x, y)[k]).abs() < 1e-3);
+                assert!((gx[k] - (b(x + 0.5, y)[k] - b(x - 0.5, y)[k])).abs() < 1e-3);
+                assert!((gy[k] - (b(x, y + 0.5)[k] - b(x, y - 0.5)[k])).abs() < 1e-3);
+            }
+        }
+        assert!(im.bilinear_grad(0.4, 3.0).is_none());
+        assert!(im.bilinear_grad(7.6, 3.0).is_none());
     }
 
     #[test]

@@ -55,6 +55,15 @@ use crate::geom::{Point, Vector};
 /// Squared normalised residual below which a sample counts as fitting.
 pub const INLIER_E: f32 = 2.5;
 
+/// Residuals `e` below which a sample's pixel is checked against the clean plate (above, the
+/// sample costs over 0.9 of a misfit anyway).
+const PLATE_CHECK_E: f32 = 9.0;
+
+thread_local! {
+    /// Diagnostics: coarse-cost evaluations so far on this thread.
+    pub static COARSE_CALLS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
 /// Most other strips a sample is checked against in [`Strip::learn`].
 const ALTERNATIVES: usize = 2;
 
@@ -221,6 +230,9 @@ pub struct Strip {
     /// Share of samples that fit at the parent and the child end on frames where the bone is
     /// seen (an average): what "fully seen" looks like for this bone in this clip.
     pub typical: (f32, f32),
+    /// Coarse cost ([`Strip::coarse_cost`]) per pyramid level on frames where the bone is
+    /// seen (an average): what "in place" costs for this bone in this clip.
+    pub typical_cost: [f32; MAX_LEVELS],
     /// Bone length on the seed frame (px).
     seed_len: f32,
     /// See [`StripSpec::width_exponent`].
@@ -279,6 +291,7 @@ impl Strip {
             coarse_step: 1,
             sigma: spec.sigma,
             typical: (1.0, 1.0),
+            typical_cost: [0.5; MAX_LEVELS],
             seed_len: len,
             width_exponent: if shape == Shape::Bone {
                 spec.width_exponent
@@ -560,10 +573,13 @@ impl Strip {
     #[inline(always)]
     fn residual_at(&self, v: &View, k: usize, x: f32, y: f32, inv: f32) -> Option<f32> {
         let col = v.img.bilinear(x, y)?;
-        if self.trust_plate && v.looks_background(x, y, col) {
+        let e = self.residual(k, v.img.k, col, v.gain, inv);
+        // The plate matters only where the sample fits (a poor fit costs nearly 1 anyway):
+        // reading it only there halves the work of a search.
+        if e < PLATE_CHECK_E && self.trust_plate && v.looks_background(x, y, col) {
             return Some(f32::INFINITY);
         }
-        Some(self.residual(k, v.img.k, col, v.gain, inv))
+        Some(e)
     }
 
     /// Mean robust cost (0–1) over the coarse samples for the pose `(p, c)` on view `v`: the
@@ -574,6 +590,7 @@ impl Strip {
 
     /// [`Strip::coarse_cost`] laid mirrored or not as asked.
     pub fn coarse_cost_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> f32 {
+        COARSE_CALLS.with(|n| n.set(n.get() + 1));
         let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
         let (mut sum, mut n) = (0.0, 0.0);
@@ -749,7 +766,8 @@ impl Strip {
     ///   unchanged; background samples stay out;
     /// - the running colour of the samples that fit moves towards the colour seen (rate
     ///   `rate`), and the template becomes `anchor_weight`·anchor + the rest running;
-    /// - the share of samples that fit at each end ([`Strip::typical`]) moves towards `fit`'s;
+    /// - the share of samples that fit at each end ([`Strip::typical`]) moves towards `fit`'s,
+    ///   and the coarse cost of each level ([`Strip::typical_cost`]) towards this frame's;
     /// - when most of the bone fits, the colour scale moves towards 1.5× the fit's residual,
     ///   within
     ///   `[sigma_min, sigma_max]`.
@@ -766,6 +784,11 @@ impl Strip {
     ) {
         self.typical.0 += rate * (fit.parent_end - self.typical.0);
         self.typical.1 += rate * (fit.child_end - self.typical.1);
+        for v in views.iter().take(MAX_LEVELS) {
+            let cost = self.coarse_cost(v, p, c);
+            let t = &mut self.typical_cost[v.img.k];
+            *t += rate * (cost - *t);
+        }
         let residual = fit.residual;
         let place = self.placement(p, c);
         let inv = self.inv_scale();

@@ -39,6 +39,22 @@ pub struct Tracker {
     frame_max: Point,
     /// The last frame's intermediate results, when asked for (see [`Tracker::trace`]).
     trace: Option<Trace>,
+    /// Time spent in each part of [`Tracker::step`] so far.
+    timings: Timings,
+}
+
+/// Time (seconds) spent in each part of [`Tracker::step`] over all frames so far, for the
+/// benchmark: the image pyramid, the coarse search, the refinement, judging (fits, evidence,
+/// mirroring, hidden joints' placement), re-acquisition, and the motion and appearance updates.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Timings {
+    pub pyramid: f64,
+    pub search: f64,
+    pub refine: f64,
+    pub judge: f64,
+    pub reacquire: f64,
+    pub learn: f64,
+    pub frames: u64,
 }
 
 /// Intermediate results of one [`Tracker::step`], for diagnostics: per joint, the predicted
@@ -109,7 +125,18 @@ impl Tracker {
                 seed_frame.height().saturating_sub(1) as f32,
             ),
             trace: None,
+            timings: Timings::default(),
         }
+    }
+
+    /// Time spent in each part of the steps so far.
+    pub fn timings(&self) -> Timings {
+        self.timings
+    }
+
+    /// Frames stepped so far.
+    pub(super) fn frame_count(&self) -> usize {
+        self.timings.frames as usize
     }
 
     /// Keeps each step's intermediate results from now on (read them with [`Tracker::trace`]).
@@ -159,16 +186,29 @@ impl Tracker {
 
     /// Tracks one frame (the frame after the previous call). Returns every joint's estimate.
     pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
+        let mut clock = std::time::Instant::now();
+        let mut lap = |t: &mut f64| {
+            let now = std::time::Instant::now();
+            *t += (now - clock).as_secs_f64();
+            clock = now;
+        };
+        let mut tm = self.timings;
+        tm.frames += 1;
         let pred = self.predict();
         let pyr = Pyramid::new(frame, self.model.levels);
         // The plate's levels are lent to the views while the strips learn.
         let plate = std::mem::take(&mut self.plate);
         let views = Self::views(self.background.as_ref(), &plate, &pyr, frame);
         let judge = views[self.params.judge_level.min(views.len() - 1)];
+        lap(&mut tm.pyramid);
+        let c0 = super::strip::COARSE_CALLS.with(|n| n.get());
         let mut x = self.search(&views, &pred);
+        let c1 = super::strip::COARSE_CALLS.with(|n| n.get());
         let searched = self.trace.is_some().then(|| x.clone());
+        lap(&mut tm.search);
         self.refine(&views, &pred, &mut x);
         let refined = self.trace.is_some().then(|| x.clone());
+        lap(&mut tm.refine);
         let mut fits = self.fits(&judge, &x);
         if self.flip_mirrored(&judge, &x, &mut fits) {
             self.refine(&views, &pred, &mut x);
@@ -177,7 +217,11 @@ impl Tracker {
         let mut evidence = self.evidence(&fits);
         let none = vec![false; x.len()];
         self.place_hidden(&pred, &evidence, &none, &mut x);
+        lap(&mut tm.judge);
+        let c2 = super::strip::COARSE_CALLS.with(|n| n.get());
         let found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
+        let c3 = super::strip::COARSE_CALLS.with(|n| n.get());
+        if std::env::var("MOCAP_COUNT").is_ok() { eprintln!("coarse calls: search {} judge {} reacquire {}", c1 - c0, c2 - c1, c3 - c2); }
         if found.iter().any(|&f| f) {
             self.refine(&views, &pred, &mut x);
             fits = self.fits(&judge, &x);
@@ -194,8 +238,11 @@ impl Tracker {
             }),
             _ => None,
         };
+        lap(&mut tm.reacquire);
         let placements = self.update(&pred, &x, &evidence);
         self.learn(&views, &x, &fits, &evidence, &placements);
+        lap(&mut tm.learn);
+        self.timings = tm;
         drop(views);
         self.plate = plate;
         if trace.is_some() {
