@@ -8,6 +8,7 @@
 pub mod app;
 pub mod atomic;
 pub mod background;
+pub mod character;
 pub mod cli;
 pub mod decode;
 #[cfg(feature = "ffmpeg")]
@@ -16,6 +17,7 @@ pub mod error;
 pub mod eval;
 pub mod geom;
 pub mod progress;
+pub mod retarget;
 pub mod run;
 pub mod seed;
 pub mod skeleton;
