@@ -11,6 +11,7 @@ pub mod background;
 pub mod character;
 pub mod cli;
 pub mod decode;
+pub mod deform;
 #[cfg(feature = "ffmpeg")]
 pub mod encode;
 pub mod error;
