@@ -18,6 +18,7 @@ pub mod error;
 pub mod eval;
 pub mod geom;
 pub mod progress;
+pub mod render;
 pub mod retarget;
 pub mod run;
 pub mod seed;

@@ -76,7 +76,8 @@ impl Rig {
             return Err("the skeleton has no bone (no joint has a parent)".into());
         }
         let mesh = triangulate::build_mesh(image, mesh_vertices)?;
-        let skin = skinning::skin(&mesh, image, rest, &bones);
+        let layer_of_bone: Vec<i32> = bones.iter().map(|&(_, c)| layers[c]).collect();
+        let skin = skinning::skin(&mesh, image, rest, &bones, &layer_of_bone);
         let rest_out: Vec<Point> = mesh
             .rest
             .iter()
@@ -95,7 +96,6 @@ impl Rig {
         let solver = options
             .stage_two
             .then(|| JointSolver::new(&mesh, &rest_out, &skin));
-        let layer_of_bone: Vec<i32> = bones.iter().map(|&(_, c)| layers[c]).collect();
         let mut draw_order: Vec<u32> = (0..mesh.triangles.len() as u32).collect();
         let tri_layer = |t: u32| {
             mesh.triangles[t as usize]

@@ -4,9 +4,18 @@
 //! The distance from a vertex to a bone is the straight distance to the bone's nearest point when
 //! that straight path stays on the character (alpha >= 64 every 0.5 px); otherwise it is the
 //! shortest path along mesh edges to a vertex that sees the bone, plus that vertex's distance.
-//! The mesh lies inside the silhouette, so neither path leaves it. Ties go to the earlier bone.
+//! The mesh lies inside the silhouette, so neither path leaves it.
+//!
+//! Where parts overlap in the image (an arm drawn across the body), the nearest bone is not
+//! always the part whose pixels are seen. So each bone also gets a thickness: the 25th
+//! percentile of the distance from its middle 60 % to the outline. A vertex within a bone's
+//! thickness (plus half a mesh spacing) is *covered* by that bone; among the bones covering it,
+//! the one of the highest draw layer wins (its part is the one in front), then the nearest
+//! relative to its thickness. A vertex no bone covers takes the nearest bone relative to its
+//! thickness (eq. 3.1 with distances in thicknesses, so a wide body keeps its corners). Ties go
+//! to the earlier bone.
 
-use super::silhouette::point_segment_distance;
+use super::silhouette::{distance_to_outline, point_segment_distance};
 use super::triangulate::Mesh;
 use crate::geom::Point;
 use image::RgbaImage;
@@ -15,8 +24,15 @@ use image::RgbaImage;
 const PATH_ALPHA: f32 = 64.0;
 
 /// For each mesh vertex, the index into `bones` of its bone. `joints` are the rest joint
-/// positions (image px), `bones` their `(parent, child)` pairs (non-empty).
-pub fn skin(mesh: &Mesh, img: &RgbaImage, joints: &[Point], bones: &[(usize, usize)]) -> Vec<u16> {
+/// positions (image px), `bones` their `(parent, child)` pairs (non-empty), `layers` each bone's
+/// draw layer.
+pub fn skin(
+    mesh: &Mesh,
+    img: &RgbaImage,
+    joints: &[Point],
+    bones: &[(usize, usize)],
+    layers: &[i32],
+) -> Vec<u16> {
     assert!(!bones.is_empty(), "skinning needs at least one bone");
     let nv = mesh.rest.len();
     let nb = bones.len();
@@ -61,13 +77,34 @@ pub fn skin(mesh: &Mesh, img: &RgbaImage, joints: &[Point], bones: &[(usize, usi
             break;
         }
     }
+    let outline: Vec<Vec<Point>> = mesh
+        .outline
+        .iter()
+        .map(|l| l.iter().map(|&v| mesh.rest[v as usize]).collect())
+        .collect();
+    let thick: Vec<f32> = bones
+        .iter()
+        .map(|&(p, c)| thickness(&outline, joints[p], joints[c]).max(mesh.spacing_px))
+        .collect();
     (0..nv)
         .map(|v| {
             let row = &dist[v * nb..(v + 1) * nb];
-            let mut best = 0;
-            for b in 1..nb {
-                if row[b] < row[best] {
+            let covered = |b: usize| row[b] <= thick[b] + 0.5 * mesh.spacing_px;
+            let mut best = usize::MAX;
+            for b in (0..nb).filter(|&b| covered(b)) {
+                if best == usize::MAX
+                    || layers[b] > layers[best]
+                    || (layers[b] == layers[best] && row[b] / thick[b] < row[best] / thick[best])
+                {
                     best = b;
+                }
+            }
+            if best == usize::MAX {
+                best = 0;
+                for b in 1..nb {
+                    if row[b] / thick[b] < row[best] / thick[best] {
+                        best = b;
+                    }
                 }
             }
             if row[best].is_infinite() {
@@ -88,6 +125,23 @@ pub fn skin(mesh: &Mesh, img: &RgbaImage, joints: &[Point], bones: &[(usize, usi
             best as u16
         })
         .collect()
+}
+
+/// Thickness (px) of the part around bone `a–c`: the 25th percentile of the distance to the
+/// outline from 9 points on the middle 60 % of the bone (0 for a bone outside the outline).
+fn thickness(outline: &[Vec<Point>], a: Point, c: Point) -> f32 {
+    let mut d: Vec<f32> = (0..9)
+        .map(|k| {
+            let p = a + (c - a) * (0.2 + 0.6 * k as f32 / 8.0);
+            if super::silhouette::inside(outline, p) {
+                distance_to_outline(outline, p)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    d.sort_by(f32::total_cmp);
+    d[2]
 }
 
 /// The point of segment `a–c` nearest to `p`.
@@ -139,6 +193,37 @@ mod tests {
     use super::*;
     use crate::deform::triangulate::build_mesh;
 
+    /// A thin bar drawn across a wide block: the bar's bone in front (layer 1) takes the bar's
+    /// vertices, the block keeps the rest even where the bar's bone is nearer.
+    #[test]
+    fn the_front_part_takes_its_pixels_and_no_more() {
+        let mut img = RgbaImage::new(80, 60);
+        for (x, y, p) in img.enumerate_pixels_mut() {
+            let block = (10..50).contains(&x) && (10..50).contains(&y);
+            let bar = (20..75).contains(&x) && (27..33).contains(&y);
+            if block || bar {
+                p[3] = 255;
+            }
+        }
+        let mesh = build_mesh(&img, 400).unwrap();
+        // Block bone vertical through x = 30; bar bone horizontal along y = 30.
+        let joints = [
+            Point::new(30.0, 12.0),
+            Point::new(30.0, 48.0),
+            Point::new(22.0, 30.0),
+            Point::new(73.0, 30.0),
+        ];
+        let skin = skin(&mesh, &img, &joints, &[(0, 1), (2, 3)], &[0, 1]);
+        for (v, p) in mesh.rest.iter().enumerate() {
+            if p.x > 51.0 || (p.x > 36.0 && (p.y - 30.0).abs() < 1.5) {
+                assert_eq!(skin[v], 1, "bar vertex {p:?}");
+            }
+            if p.x > 38.0 && p.x < 49.0 && (p.y - 30.0).abs() > 8.0 {
+                assert_eq!(skin[v], 0, "block vertex {p:?} given to the bar");
+            }
+        }
+    }
+
     /// A "U": two vertical bars joined at the bottom, a bone up each bar.
     #[test]
     fn vertices_do_not_attach_across_a_gap() {
@@ -159,7 +244,7 @@ mod tests {
             Point::new(32.0, 40.0),
         ];
         let bones = [(0, 1), (2, 3)];
-        let skin = skin(&mesh, &img, &joints, &bones);
+        let skin = skin(&mesh, &img, &joints, &bones, &[0, 0]);
         // (Near the bridge at the bottom the right bone is nearer along the mesh, rightly.)
         for (v, p) in mesh.rest.iter().enumerate() {
             if p.x < 26.0 && p.y < 30.0 {

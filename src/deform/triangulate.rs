@@ -40,10 +40,12 @@ pub fn build_mesh(img: &RgbaImage, target_vertices: usize) -> Result<Mesh, Strin
         );
     }
     let per: f32 = raw.iter().map(|l| perimeter(l)).sum();
-    // N ≈ A / (h² √3/2) + P / h, solved for the spacing h.
+    // N ≈ A / (h² √3/2) + 0.3 P / h (outline points, less the lattice points kept 0.6 h away
+    // from it), solved for the spacing h.
     let n = target_vertices.max(10) as f32;
     let c = 3f32.sqrt() / 2.0;
-    let h = ((per + (per * per + 4.0 * n * area / c).sqrt()) / (2.0 * n)).max(1.0);
+    let per3 = 0.3 * per;
+    let h = ((per3 + (per3 * per3 + 4.0 * n * area / c).sqrt()) / (2.0 * n)).max(1.0);
     let loops: Vec<Vec<Point>> = raw
         .iter()
         .filter(|l| signed_area(l).abs() >= h * h)
