@@ -28,6 +28,15 @@ struct Part {
     boxy: Option<f32>,
     fill: [u8; 3],
     stripe: [u8; 3],
+    /// A bulge: at this fraction along the part, this half-width (px at 1 character height).
+    bulge: Option<(f32, f32)>,
+}
+
+impl Part {
+    fn mid(mut self, at: f32, half_width: f32) -> Part {
+        self.bulge = Some((at, half_width));
+        self
+    }
 }
 
 struct Design {
@@ -83,50 +92,81 @@ fn limb(
         boxy,
         fill,
         stripe,
+        bulge: None,
     }
+}
+
+/// The parts of a marionette: a spindle torso (slim at the chest and the pelvis, so the arms and
+/// thighs hinge clear of it), tapered limbs, balls at the joints. `w` scales the limbs' widths.
+fn marionette(
+    w: f32,
+    boxy: Option<f32>,
+    body: [u8; 3],
+    body_s: [u8; 3],
+    near: [u8; 3],
+    near_s: [u8; 3],
+    far: [u8; 3],
+    far_s: [u8; 3],
+    joint: [u8; 3],
+) -> Vec<Part> {
+    let l = |from, to, r0: f32, r1: f32, f, st| limb(from, to, r0 * w, r1 * w, boxy, f, st);
+    let ball = |at: usize, r: f32, f| limb(at, at, r * w, r * w, None, f, f);
+    vec![
+        // Far (left) arm and leg, behind the body.
+        l(1, 4, 0.009, 0.016, far, far_s),
+        ball(4, 0.017, joint),
+        l(4, 5, 0.015, 0.013, far, far_s),
+        ball(5, 0.018, far),
+        l(0, 8, 0.011, 0.022, far, far_s),
+        ball(8, 0.021, joint),
+        l(8, 9, 0.02, 0.016, far, far_s),
+        ball(9, 0.016, joint),
+        l(9, 10, 0.016, 0.011, far, far_s),
+        // Body: neck, spindle torso, joint balls.
+        l(1, 2, 0.01, 0.01, joint, joint),
+        limb(1, 0, 0.01, 0.02, boxy, body, body_s).mid(0.55, 0.055 * w),
+        ball(1, 0.014, joint),
+        ball(0, 0.02, joint),
+        // Near (right) leg and arm, in front.
+        l(0, 11, 0.011, 0.022, near, near_s),
+        ball(11, 0.021, joint),
+        l(11, 12, 0.02, 0.016, near, near_s),
+        ball(12, 0.016, joint),
+        l(12, 13, 0.016, 0.011, near, near_s),
+        l(1, 6, 0.009, 0.016, near, near_s),
+        ball(6, 0.017, joint),
+        l(6, 7, 0.015, 0.013, near, near_s),
+        ball(7, 0.018, near),
+    ]
 }
 
 fn robot() -> Design {
     let metal = [150, 160, 175];
-    let dark = [110, 118, 132];
-    let near = [196, 84, 52];
-    let near_s = [150, 58, 36];
-    let far = [132, 64, 48];
-    let far_s = [100, 46, 34];
-    let b = Some(0.012);
+    let dark = [96, 104, 118];
     Design {
         name: "robot",
         height_px: 400.0,
         bone: [
             0.0, 0.28, 0.07, 0.065, 0.17, 0.16, 0.17, 0.16, 0.255, 0.245, 0.09, 0.255, 0.245, 0.09,
         ],
-        parts: vec![
-            limb(1, 4, 0.026, 0.024, b, far, far_s),
-            limb(4, 5, 0.024, 0.02, b, far, far_s),
-            limb(0, 8, 0.034, 0.03, b, far, far_s),
-            limb(8, 9, 0.03, 0.026, b, far, far_s),
-            limb(9, 10, 0.026, 0.016, b, dark, far_s),
-            limb(0, 1, 0.055, 0.06, Some(0.02), metal, dark),
-            limb(1, 2, 0.02, 0.02, b, dark, dark),
-            limb(0, 11, 0.034, 0.03, b, near, near_s),
-            limb(11, 12, 0.03, 0.026, b, near, near_s),
-            limb(12, 13, 0.026, 0.016, b, dark, near_s),
-            limb(1, 6, 0.026, 0.024, b, near, near_s),
-            limb(6, 7, 0.024, 0.02, b, near, near_s),
-        ],
+        parts: marionette(
+            1.0,
+            Some(0.006),
+            metal,
+            dark,
+            [196, 84, 52],
+            [150, 58, 36],
+            [132, 64, 48],
+            [100, 46, 34],
+            [70, 76, 88],
+        ),
         head: (0.07, metal, [40, 200, 230], true),
         background: "#dde6ee",
-        comment: "A boxy robot with the synthetic walker's proportions.",
+        comment: "A robot marionette with the synthetic walker's proportions.",
     }
 }
 
 fn imp() -> Design {
-    let skin = [104, 170, 84];
-    let skin_s = [76, 130, 60];
-    let back = [78, 132, 64];
-    let back_s = [58, 100, 46];
-    let coat = [236, 186, 60];
-    let coat_s = [200, 140, 40];
     Design {
         name: "imp",
         height_px: 400.0,
@@ -134,21 +174,18 @@ fn imp() -> Design {
         bone: [
             0.0, 0.2, 0.06, 0.11, 0.2, 0.2, 0.2, 0.2, 0.17, 0.16, 0.09, 0.17, 0.16, 0.09,
         ],
-        parts: vec![
-            limb(1, 4, 0.024, 0.02, None, back, back_s),
-            limb(4, 5, 0.02, 0.026, None, back, back_s),
-            limb(0, 8, 0.04, 0.032, None, back, back_s),
-            limb(8, 9, 0.03, 0.026, None, back, back_s),
-            limb(9, 10, 0.028, 0.02, None, back, back_s),
-            limb(0, 1, 0.075, 0.06, None, coat, coat_s),
-            limb(1, 2, 0.03, 0.03, None, skin, skin_s),
-            limb(0, 11, 0.04, 0.032, None, skin, skin_s),
-            limb(11, 12, 0.03, 0.026, None, skin, skin_s),
-            limb(12, 13, 0.028, 0.02, None, skin, skin_s),
-            limb(1, 6, 0.024, 0.02, None, skin, skin_s),
-            limb(6, 7, 0.02, 0.026, None, skin, skin_s),
-        ],
-        head: (0.12, skin, [250, 250, 240], false),
+        parts: marionette(
+            0.9,
+            None,
+            [236, 186, 60],
+            [200, 140, 40],
+            [104, 170, 84],
+            [76, 130, 60],
+            [78, 132, 64],
+            [58, 100, 46],
+            [60, 96, 50],
+        ),
+        head: (0.12, [104, 170, 84], [250, 250, 240], false),
         background: "#f3eee0",
         comment: "An imp: a big head, long arms, a short body and short legs.",
     }
@@ -212,9 +249,16 @@ fn draw(d: &Design, src: &[V]) -> (image::RgbaImage, String) {
     let ol = 2.2; // outline width, px
     for part in &d.parts {
         let (a, b) = (j[part.from], j[part.to]);
-        let sd = |p: V| match part.boxy {
-            Some(round) => box_sdf(p, a, b, part.r0 * h, part.r1 * h, round * h),
-            None => capsule_sdf(p, a, b, part.r0 * h, part.r1 * h),
+        let one = |p: V, a: V, b: V, r0: f32, r1: f32| match part.boxy {
+            Some(round) if a != b => box_sdf(p, a, b, r0, r1, round * h),
+            _ => capsule_sdf(p, a, b, r0, r1),
+        };
+        let sd = |p: V| match part.bulge {
+            None => one(p, a, b, part.r0 * h, part.r1 * h),
+            Some((at, r)) => {
+                let m = [a[0] + at * (b[0] - a[0]), a[1] + at * (b[1] - a[1])];
+                one(p, a, m, part.r0 * h, r * h).min(one(p, m, b, r * h, part.r1 * h))
+            }
         };
         paint(
             &mut img,

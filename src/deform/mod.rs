@@ -2,7 +2,8 @@
 //! [`silhouette`] (marching squares on alpha) → [`triangulate`] (uniform samples, constrained
 //! Delaunay) → [`skinning`] (vertices to bones without crossing the silhouette) → [`needle`]
 //! (stage one: the variable-length needle model, area preservation) → [`solve`] (stage two:
-//! Gauss-Newton over the joint-area vertices).
+//! Gauss-Newton over the joint-area vertices). [`split`] opens the mesh between parts hinged on
+//! one joint (siblings), so that a limb can swing past its neighbour.
 //!
 //! A [`Rig`] is built once per character and then deforms the mesh for any pose, each frame on
 //! its own (so frames can be deformed in parallel with identical results).
@@ -11,6 +12,7 @@ pub mod needle;
 pub mod silhouette;
 pub mod skinning;
 pub mod solve;
+pub mod split;
 pub mod triangulate;
 
 use crate::geom::{Point, Vector};
@@ -78,6 +80,7 @@ impl Rig {
         let mesh = triangulate::build_mesh(image, mesh_vertices)?;
         let layer_of_bone: Vec<i32> = bones.iter().map(|&(_, c)| layers[c]).collect();
         let skin = skinning::skin(&mesh, image, rest, &bones, &layer_of_bone);
+        let (mesh, skin) = split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
         let rest_out: Vec<Point> = mesh
             .rest
             .iter()
