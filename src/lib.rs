@@ -2,8 +2,10 @@
 //!
 //! The pipeline, one module a stage, data flowing one way:
 //! [`decode`] (frames in) → [`background`] (clean plate, foreground mask) → [`track`] (template,
-//! Kalman filter, search) → [`run`] (run folder, manifest). [`synth`] renders test clips with
-//! ground truth. Coordinates and units are stated once in [`geom`]'s Conventions.
+//! Kalman filter, search) → [`run`] (run folder, manifest) → [`retarget`] (onto a target
+//! [`character`], cartoon filter) → [`deform`] (mesh, skinning, needle model, joint solve) →
+//! [`render`] (textured triangles). [`synth`] renders test clips with ground truth. Coordinates
+//! and units are stated once in [`geom`]'s Conventions.
 
 pub mod app;
 pub mod atomic;
