@@ -266,3 +266,9 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
     }
     Ok(lines)
 }
+
+mod animate;
+pub use animate::{
+    render, retarget, run_frame, RenderOptions, RenderSummary, Renderer, RetargetSummary,
+    RETARGET_DIR,
+};

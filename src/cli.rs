@@ -26,6 +26,77 @@ pub enum Command {
     Synth(SynthArgs),
     /// Compare a run's tracks with ground truth (frame,joint,x,y): median, p95, PCK@5/@10.
     Eval(EvalArgs),
+    /// Retarget a run's motion onto a target character: RUN/retarget/pose.csv and bones.csv.
+    Retarget(RetargetArgs),
+    /// Deform and draw the target character along RUN/retarget/pose.csv: a video and/or PNGs.
+    Render(RenderArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct RetargetArgs {
+    /// Run folder written by `mocap2d track`.
+    pub run: PathBuf,
+    /// Target character file (TOML; see README, "Target character file").
+    #[arg(long)]
+    pub target: PathBuf,
+    /// Cartoon animation filter strength A (0 = off; 1 to 3 shows): anticipation and
+    /// follow-through on every bone's length and angle.
+    #[arg(long, value_name = "A", value_parser = parse_strength)]
+    pub cartoon: Option<f64>,
+    /// Width σ of the cartoon filter's Gaussian, in frames.
+    #[arg(long, value_name = "S", default_value_t = crate::retarget::DEFAULT_CARTOON_SIGMA,
+          value_parser = parse_sigma, requires = "cartoon")]
+    pub cartoon_sigma: f64,
+    /// Smooth the tracks first: median:N (N odd frames) or gaussian:S (σ in frames).
+    #[arg(long, value_name = "KIND:N")]
+    pub smooth: Option<crate::retarget::Smooth>,
+}
+
+impl RetargetArgs {
+    /// The retargeting options these flags ask for.
+    pub fn options(&self) -> crate::retarget::RetargetOptions {
+        crate::retarget::RetargetOptions {
+            smooth: self.smooth,
+            cartoon: self.cartoon.map(|strength| crate::retarget::Cartoon {
+                strength,
+                sigma_frames: self.cartoon_sigma,
+            }),
+        }
+    }
+}
+
+#[derive(Debug, clap::Args)]
+pub struct RenderArgs {
+    /// Run folder, retargeted with `mocap2d retarget`.
+    pub run: PathBuf,
+    /// Target character file: the one given to `mocap2d retarget`.
+    #[arg(long)]
+    pub target: PathBuf,
+    /// Video to write (.mp4, .mkv, .mov or .avi; H.264).
+    #[arg(long, required_unless_present = "frames_dir")]
+    pub out: Option<PathBuf>,
+    /// Also (or only) write every frame as a PNG into this folder (000123.png = frame 123).
+    #[arg(long, value_name = "DIR")]
+    pub frames_dir: Option<PathBuf>,
+    /// Needles keep their length when bones stretch (no squash-and-stretch area preservation).
+    #[arg(long)]
+    pub no_area_preservation: bool,
+}
+
+fn parse_strength(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=20.0).contains(&v) => Ok(v),
+        _ => Err(format!("{s:?}: expected a strength from 0 to 20, e.g. 1.5")),
+    }
+}
+
+fn parse_sigma(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 60.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?}: expected a width in frames above 0, at most 60, e.g. 4"
+        )),
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -133,6 +204,49 @@ mod tests {
             }
             _ => panic!("not track"),
         }
+    }
+
+    #[test]
+    fn parses_retarget_and_render_flags() {
+        let cli = Cli::try_parse_from([
+            "mocap2d",
+            "retarget",
+            "r.mocap",
+            "--target",
+            "c.toml",
+            "--cartoon",
+            "1.5",
+            "--smooth",
+            "median:5",
+        ])
+        .unwrap();
+        let Command::Retarget(a) = cli.command else {
+            panic!("not retarget")
+        };
+        let o = a.options();
+        assert_eq!(o.cartoon.unwrap().strength, 1.5);
+        assert_eq!(o.cartoon.unwrap().sigma_frames, 4.0);
+        assert!(Cli::try_parse_from([
+            "mocap2d",
+            "retarget",
+            "r",
+            "--target",
+            "c",
+            "--cartoon-sigma",
+            "2"
+        ])
+        .is_err());
+        assert!(Cli::try_parse_from(["mocap2d", "render", "r", "--target", "c"]).is_err());
+        assert!(Cli::try_parse_from([
+            "mocap2d",
+            "render",
+            "r",
+            "--target",
+            "c",
+            "--frames-dir",
+            "f"
+        ])
+        .is_ok());
     }
 
     #[test]

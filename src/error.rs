@@ -19,6 +19,15 @@ pub enum Error {
         msg: String,
     },
 
+    /// A target character file (or its image) that is malformed, or does not fit the run.
+    #[error("{}: {}{}{msg}", path.display(), line.map(|l| format!("line {l}: ")).unwrap_or_default(), joint.as_ref().map(|j| format!("joint {j:?}: ")).unwrap_or_default())]
+    Character {
+        path: PathBuf,
+        line: Option<usize>,
+        joint: Option<String>,
+        msg: String,
+    },
+
     /// A clip that is missing, empty or that FFmpeg cannot open.
     #[error("{}: {msg}", path.display())]
     Clip { path: PathBuf, msg: String },
@@ -61,7 +70,11 @@ impl Error {
     pub fn is_user_error(&self) -> bool {
         matches!(
             self,
-            Error::Seed { .. } | Error::Clip { .. } | Error::RunFolder { .. } | Error::Usage(_)
+            Error::Seed { .. }
+                | Error::Character { .. }
+                | Error::Clip { .. }
+                | Error::RunFolder { .. }
+                | Error::Usage(_)
         )
     }
 

@@ -2,20 +2,26 @@
 //!
 //! The pipeline, one module a stage, data flowing one way:
 //! [`decode`] (frames in) → [`background`] (clean plate, foreground mask) → [`track`] (template,
-//! Kalman filter, search) → [`run`] (run folder, manifest). [`synth`] renders test clips with
-//! ground truth. Coordinates and units are stated once in [`geom`]'s Conventions.
+//! Kalman filter, search) → [`run`] (run folder, manifest) → [`retarget`] (onto a target
+//! [`character`], cartoon filter) → [`deform`] (mesh, skinning, needle model, joint solve) →
+//! [`render`] (textured triangles). [`synth`] renders test clips with ground truth. Coordinates
+//! and units are stated once in [`geom`]'s Conventions.
 
 pub mod app;
 pub mod atomic;
 pub mod background;
+pub mod character;
 pub mod cli;
 pub mod decode;
+pub mod deform;
 #[cfg(feature = "ffmpeg")]
 pub mod encode;
 pub mod error;
 pub mod eval;
 pub mod geom;
 pub mod progress;
+pub mod render;
+pub mod retarget;
 pub mod run;
 pub mod seed;
 pub mod skeleton;

@@ -94,6 +94,42 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 a.out.display()
             );
         }
+        Command::Retarget(a) => {
+            let s = app::retarget(&a.run, &a.target, &a.options())?;
+            eprintln!(
+                "retargeted {} joints over {} frames (scale {:.3} px per image px) -> {}",
+                s.joints,
+                s.frames,
+                s.scale,
+                s.dir.display()
+            );
+        }
+        Command::Render(a) => {
+            let opts = app::RenderOptions {
+                run: a.run,
+                target: a.target,
+                out: a.out,
+                frames_dir: a.frames_dir,
+                deform: mocap2d::deform::DeformOptions {
+                    area_preservation: !a.no_area_preservation,
+                    stage_two: true,
+                },
+            };
+            let s = app::render(&opts, &bars)?;
+            let to: Vec<String> = [&opts.out, &opts.frames_dir]
+                .into_iter()
+                .flatten()
+                .map(|p| p.display().to_string())
+                .collect();
+            eprintln!(
+                "rendered {} frames ({} vertices, {} triangles, {} in joint areas) -> {}",
+                s.frames,
+                s.vertices,
+                s.triangles,
+                s.joint_vertices,
+                to.join(" and ")
+            );
+        }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
                 println!("{line}");

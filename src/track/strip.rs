@@ -483,8 +483,7 @@ impl Strip {
     /// overall.
     pub fn found(&self, fit: &Fit, share: f32, parent_hidden: bool) -> bool {
         let typical = 0.5 * (self.typical.0 + self.typical.1);
-        (parent_hidden || fit.inliers >= share * typical)
-            && fit.child_end >= share * self.typical.1
+        (parent_hidden || fit.inliers >= share * typical) && fit.child_end >= share * self.typical.1
     }
 
     /// Number of samples.

@@ -1,0 +1,565 @@
+//! Target characters: the TOML file that `mocap2d retarget` and `mocap2d render` take with
+//! `--target`, and its checks against the source skeleton.
+//!
+//! ```toml
+//! image = "robot.png"      # PNG with alpha, the character in its rest pose; relative to this file
+//! scale = "fit"            # output px per image px, or "fit" (default): the rest skeleton gets the
+//!                          # source skeleton's size (sum of bone lengths)
+//! background = "#ffffff"   # "#rrggbb" (default white), "transparent", or a frame-sized image file
+//! mesh_vertices = 500      # about how many mesh vertices to deform (default 500, 50 to 5000)
+//!
+//! [[joint]]
+//! name = "pelvis"          # unique; letters, digits, _ . -
+//! x = 120.0                # rest position in the image, px; origin top-left, y down
+//! y = 210.5
+//! # parent = "chest"       # omitted for a root; the bone runs parent -> this joint
+//! # layer = 1              # draw order of the bone ending here (higher on top; default 0)
+//!
+//! [map]                    # only when names differ: target joint = source joint
+//! hip = "pelvis"
+//! ```
+//! Positions follow [`crate::geom`]'s conventions. [`read_character`] checks the file on its own
+//! (syntax, keys, types, image, joints inside the image and on the character); [`Character::
+//! match_source`] checks it against the run's skeleton (every joint mapped, same parent links).
+//! Every problem is an [`Error::Character`] naming the file, line and joint, with the fix: exit 2.
+
+use crate::error::{Error, Result};
+use crate::geom::Point;
+use crate::seed::is_valid_joint_name;
+use crate::skeleton::Skeleton;
+use image::RgbaImage;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Default of `mesh_vertices`.
+pub const DEFAULT_MESH_VERTICES: usize = 500;
+
+/// Alpha (0–255) at or above which a pixel belongs to the character.
+pub const ALPHA_INSIDE: u8 = 128;
+
+/// How image px become output px.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Scale {
+    /// The rest skeleton is scaled to the source rest skeleton's size (sum of bone lengths).
+    Fit,
+    /// Output px per image px.
+    Factor(f32),
+}
+
+/// What the character is drawn over.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Backdrop {
+    /// An opaque colour, RGB.
+    Colour([u8; 3]),
+    /// Nothing: PNG frames keep alpha; the video shows black.
+    Transparent,
+    /// A frame-sized image (the path as resolved against the character file's folder).
+    Plate(PathBuf),
+}
+
+/// A parsed and checked target character.
+#[derive(Debug, Clone)]
+pub struct Character {
+    /// The character file.
+    pub path: PathBuf,
+    /// The resolved image path.
+    pub image_path: PathBuf,
+    /// The image, RGBA.
+    pub image: RgbaImage,
+    /// Joint names and parent links, in file order.
+    pub skeleton: Skeleton,
+    /// Rest position of each joint in the image (px).
+    pub rest: Vec<Point>,
+    /// Draw layer of the bone ending at each joint (0 for roots and by default).
+    pub layers: Vec<i32>,
+    pub scale: Scale,
+    pub backdrop: Backdrop,
+    /// About how many mesh vertices to use.
+    pub mesh_vertices: usize,
+    /// `[map]`: target joint name -> source joint name.
+    pub map: BTreeMap<String, String>,
+    /// 1-based line of each joint's `[[joint]]` header.
+    pub lines: Vec<usize>,
+    /// blake3 (hex) of the file's text.
+    pub blake3: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCharacter {
+    image: String,
+    scale: Option<toml::Value>,
+    background: Option<String>,
+    mesh_vertices: Option<i64>,
+    joint: Vec<RawJoint>,
+    #[serde(default)]
+    map: BTreeMap<String, String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawJoint {
+    name: String,
+    x: f64,
+    y: f64,
+    parent: Option<String>,
+    layer: Option<i64>,
+}
+
+/// Reads and checks the character file at `path`, loading its image.
+pub fn read_character(path: &Path) -> Result<Character> {
+    let err = |line: Option<usize>, joint: Option<&str>, msg: String| Error::Character {
+        path: path.to_owned(),
+        line,
+        joint: joint.map(str::to_owned),
+        msg,
+    };
+    if path.is_dir() {
+        return Err(err(
+            None,
+            None,
+            "is a folder; give the character's .toml file".into(),
+        ));
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => err(
+            None,
+            None,
+            "character file not found; see configs/characters/ for examples".into(),
+        ),
+        std::io::ErrorKind::InvalidData => err(None, None, "not UTF-8 text".into()),
+        _ => Error::io(path, e),
+    })?;
+    let raw: RawCharacter = toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+        err(line, None, format!("{}; fix the file", e.message().trim()))
+    })?;
+    let lines = joint_lines(&text);
+    let line_of = |i: usize| lines.get(i).copied();
+    if raw.joint.is_empty() {
+        return Err(err(
+            None,
+            None,
+            "no joints; add a [[joint]] table (name, x, y, parent) per joint".into(),
+        ));
+    }
+
+    // Joints: names, parents, layers.
+    let mut names: Vec<String> = Vec::new();
+    for (i, j) in raw.joint.iter().enumerate() {
+        if !is_valid_joint_name(&j.name) {
+            return Err(err(
+                line_of(i),
+                Some(&j.name),
+                "`name` must be non-empty with letters, digits, _ . - only".into(),
+            ));
+        }
+        if names.contains(&j.name) {
+            return Err(err(
+                line_of(i),
+                Some(&j.name),
+                "`name` is used by an earlier joint; joint names must be unique".into(),
+            ));
+        }
+        if !(j.x.is_finite() && j.y.is_finite()) {
+            return Err(err(
+                line_of(i),
+                Some(&j.name),
+                "`x` and `y` must be finite numbers (px)".into(),
+            ));
+        }
+        names.push(j.name.clone());
+    }
+    let mut parents = Vec::with_capacity(names.len());
+    let mut layers = Vec::with_capacity(names.len());
+    for (i, j) in raw.joint.iter().enumerate() {
+        let parent = match &j.parent {
+            None => None,
+            Some(p) => Some(names.iter().position(|n| n == p).ok_or_else(|| {
+                err(
+                    line_of(i),
+                    Some(&j.name),
+                    format!(
+                        "parent {p:?} is not a joint of this file; known joints: {}",
+                        names.join(", ")
+                    ),
+                )
+            })?),
+        };
+        let layer =
+            match (j.layer, parent) {
+                (None, _) => 0,
+                (Some(_), None) => return Err(err(
+                    line_of(i),
+                    Some(&j.name),
+                    "`layer` belongs to the bone ending at a joint, and a root has none; remove it"
+                        .into(),
+                )),
+                (Some(l), Some(_)) => i32::try_from(l)
+                    .ok()
+                    .filter(|l| l.abs() <= 1000)
+                    .ok_or_else(|| {
+                        err(
+                            line_of(i),
+                            Some(&j.name),
+                            format!("`layer` must be between -1000 and 1000, found {l}"),
+                        )
+                    })?,
+            };
+        parents.push(parent);
+        layers.push(layer);
+    }
+    let skeleton = Skeleton::new(names, parents);
+    if let Some(cycle) = skeleton.find_cycle() {
+        let names: Vec<&str> = cycle.iter().map(|&i| skeleton.names[i].as_str()).collect();
+        return Err(err(
+            line_of(cycle[0]),
+            Some(names[0]),
+            format!(
+                "parent links form a cycle ({}); remove one `parent`",
+                names.join(" -> ")
+            ),
+        ));
+    }
+
+    let scale = match &raw.scale {
+        None => Scale::Fit,
+        Some(toml::Value::String(s)) if s == "fit" => Scale::Fit,
+        Some(v) => {
+            let f = match v {
+                toml::Value::Float(f) => Some(*f),
+                toml::Value::Integer(i) => Some(*i as f64),
+                _ => None,
+            };
+            match f {
+                Some(f) if f.is_finite() && f > 0.0 && f <= 100.0 => Scale::Factor(f as f32),
+                _ => {
+                    return Err(err(
+                        None,
+                        None,
+                        format!(
+                            "`scale` must be \"fit\" or a number of output px per image px \
+                             above 0 and at most 100, found {v}"
+                        ),
+                    ))
+                }
+            }
+        }
+    };
+    let mesh_vertices = match raw.mesh_vertices {
+        None => DEFAULT_MESH_VERTICES,
+        Some(n) if (50..=5000).contains(&n) => n as usize,
+        Some(n) => {
+            return Err(err(
+                None,
+                None,
+                format!("`mesh_vertices` must be 50 to 5000, found {n}"),
+            ))
+        }
+    };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let backdrop = match raw.background.as_deref() {
+        None => Backdrop::Colour([255, 255, 255]),
+        Some("transparent") => Backdrop::Transparent,
+        Some(s) if s.starts_with('#') => Backdrop::Colour(parse_hex(s).ok_or_else(|| {
+            err(
+                None,
+                None,
+                format!("`background` {s:?} is not a colour; write \"#rrggbb\", e.g. \"#ffffff\""),
+            )
+        })?),
+        Some(s) => {
+            let p = dir.join(s);
+            if !p.is_file() {
+                return Err(err(
+                    None,
+                    None,
+                    format!(
+                        "`background` image {} not found; give \"#rrggbb\", \"transparent\" or \
+                         an image file relative to the character file",
+                        p.display()
+                    ),
+                ));
+            }
+            Backdrop::Plate(p)
+        }
+    };
+
+    let image_path = dir.join(&raw.image);
+    let image = load_image(&image_path, &|m| err(None, None, m))?;
+    let (w, h) = image.dimensions();
+    let mut rest = Vec::with_capacity(raw.joint.len());
+    for (i, j) in raw.joint.iter().enumerate() {
+        let (x, y) = (j.x as f32, j.y as f32);
+        if !(x >= -0.5 && y >= -0.5 && x <= w as f32 - 0.5 && y <= h as f32 - 0.5) {
+            return Err(err(
+                line_of(i),
+                Some(&j.name),
+                format!(
+                    "rest position ({x}, {y}) is outside the {w}×{h} image \
+                     (x -0.5..{}, y -0.5..{}); place the joint on the character",
+                    w as f32 - 0.5,
+                    h as f32 - 0.5
+                ),
+            ));
+        }
+        if !near_opaque(&image, x, y, 3) {
+            return Err(err(
+                line_of(i),
+                Some(&j.name),
+                format!(
+                    "rest position ({x}, {y}) is on a transparent part of the image (no pixel \
+                     within 3 px has alpha >= {ALPHA_INSIDE}); place the joint on the character"
+                ),
+            ));
+        }
+        rest.push(Point::new(x, y));
+    }
+    for (t, s) in &raw.map {
+        if skeleton.index_of(t).is_none() {
+            return Err(err(
+                None,
+                None,
+                format!(
+                    "[map] key {t:?} is not a joint of this file; keys are target joint names, \
+                     values source joint names"
+                ),
+            ));
+        }
+        if raw.map.values().filter(|v| *v == s).count() > 1 {
+            return Err(err(
+                None,
+                None,
+                format!("[map] maps several joints to the source joint {s:?}; map each once"),
+            ));
+        }
+    }
+    Ok(Character {
+        path: path.to_owned(),
+        image_path,
+        image,
+        skeleton,
+        rest,
+        layers,
+        scale,
+        backdrop,
+        mesh_vertices,
+        map: raw.map,
+        lines,
+        blake3: blake3::hash(text.as_bytes()).to_hex().to_string(),
+    })
+}
+
+impl Character {
+    /// For each target joint, the index of its source joint in `source` (the run's skeleton, from
+    /// `source_path`, named in messages). Every target joint must map to a source joint and every
+    /// source joint be mapped, with the same parent links.
+    pub fn match_source(&self, source: &Skeleton, source_path: &Path) -> Result<Vec<usize>> {
+        let err = |i: Option<usize>, msg: String| Error::Character {
+            path: self.path.clone(),
+            line: i.and_then(|i| self.lines.get(i).copied()),
+            joint: i.map(|i| self.skeleton.names[i].clone()),
+            msg,
+        };
+        let source_name = |t: &str| -> String { self.map.get(t).cloned().unwrap_or(t.to_owned()) };
+        let mut to_source = Vec::with_capacity(self.skeleton.len());
+        for (i, name) in self.skeleton.names.iter().enumerate() {
+            let s = source_name(name);
+            let Some(si) = source.index_of(&s) else {
+                return Err(err(
+                    Some(i),
+                    format!(
+                        "unmapped joint: the run ({}) has no joint {s:?}; add `{name} = \
+                         \"<source joint>\"` under [map] (source joints: {})",
+                        source_path.display(),
+                        source.names.join(", ")
+                    ),
+                ));
+            };
+            to_source.push(si);
+        }
+        for (si, sname) in source.names.iter().enumerate() {
+            if !to_source.contains(&si) {
+                return Err(err(
+                    None,
+                    format!(
+                        "unmapped joint: source joint {sname:?} of {} has no target joint; add \
+                         a [[joint]] for it (or a [map] entry naming it)",
+                        source_path.display()
+                    ),
+                ));
+            }
+        }
+        for (i, &si) in to_source.iter().enumerate() {
+            let tp = self.skeleton.parent(i).map(|p| to_source[p]);
+            let sp = source.parent(si);
+            if tp != sp {
+                let show = |p: Option<usize>| {
+                    p.map_or("no parent (a root)".to_owned(), |p| {
+                        format!("parent {:?}", source.names[p])
+                    })
+                };
+                return Err(err(
+                    Some(i),
+                    format!(
+                        "topology mismatch: in the run ({}) source joint {:?} has {}, here it \
+                         has {} (in source names); the target needs the source's skeleton",
+                        source_path.display(),
+                        source.names[si],
+                        show(sp),
+                        show(tp)
+                    ),
+                ));
+            }
+        }
+        Ok(to_source)
+    }
+}
+
+/// 1-based lines of the `[[joint]]` headers, in order.
+fn joint_lines(text: &str) -> Vec<usize> {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| {
+            let l = l.trim_start();
+            l.starts_with("[[") && l[2..].trim_start().starts_with("joint")
+        })
+        .map(|(i, _)| i + 1)
+        .collect()
+}
+
+fn parse_hex(s: &str) -> Option<[u8; 3]> {
+    let h = s.strip_prefix('#')?;
+    if h.len() != 6 || !h.is_ascii() {
+        return None;
+    }
+    let c = |i: usize| u8::from_str_radix(&h[i..i + 2], 16).ok();
+    Some([c(0)?, c(2)?, c(4)?])
+}
+
+/// Loads a PNG with an alpha channel; errors go through `err` (user errors).
+fn load_image(path: &Path, err: &dyn Fn(String) -> Error) -> Result<RgbaImage> {
+    if !path.is_file() {
+        return Err(err(format!(
+            "image {} not found; `image` is relative to the character file",
+            path.display()
+        )));
+    }
+    let img = image::open(path)
+        .map_err(|e| err(format!("image {}: cannot decode: {e}", path.display())))?;
+    if !img.color().has_alpha() {
+        return Err(err(format!(
+            "image {} has no alpha channel; save it as a PNG with transparency around the character",
+            path.display()
+        )));
+    }
+    let img = img.to_rgba8();
+    if img.width() < 8 || img.height() < 8 || img.width() > 8192 || img.height() > 8192 {
+        return Err(err(format!(
+            "image {} is {}×{} px; use 8 to 8192 px a side",
+            path.display(),
+            img.width(),
+            img.height()
+        )));
+    }
+    Ok(img)
+}
+
+/// True when a pixel within `radius` px of `(x, y)` has alpha >= [`ALPHA_INSIDE`].
+fn near_opaque(img: &RgbaImage, x: f32, y: f32, radius: i32) -> bool {
+    let (cx, cy) = (x.round() as i32, y.round() as i32);
+    (-radius..=radius).any(|dy| {
+        (-radius..=radius).any(|dx| {
+            let (px, py) = (cx + dx, cy + dy);
+            px >= 0
+                && py >= 0
+                && (px as u32) < img.width()
+                && (py as u32) < img.height()
+                && img.get_pixel(px as u32, py as u32)[3] >= ALPHA_INSIDE
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write_fixture(dir: &Path, toml: &str) -> PathBuf {
+        let mut img = RgbaImage::new(40, 60);
+        for y in 5..55 {
+            for x in 10..30 {
+                img.put_pixel(x, y, image::Rgba([200, 50, 50, 255]));
+            }
+        }
+        img.save(dir.join("c.png")).unwrap();
+        let p = dir.join("c.toml");
+        std::fs::write(&p, toml).unwrap();
+        p
+    }
+
+    const OK: &str = "image = \"c.png\"\nbackground = \"#102030\"\n\n[[joint]]\nname = \"hip\"\n\
+        x = 20\ny = 40\n\n[[joint]]\nname = \"head\"\nx = 20\ny = 10\nparent = \"hip\"\nlayer = 2\n";
+
+    #[test]
+    fn reads_joints_layers_and_defaults() {
+        let d = tempfile::tempdir().unwrap();
+        let c = read_character(&write_fixture(d.path(), OK)).unwrap();
+        assert_eq!(c.skeleton.names, vec!["hip", "head"]);
+        assert_eq!(c.skeleton.parents, vec![None, Some(0)]);
+        assert_eq!(c.layers, vec![0, 2]);
+        assert_eq!(c.lines, vec![4, 9]);
+        assert_eq!(c.scale, Scale::Fit);
+        assert_eq!(c.backdrop, Backdrop::Colour([0x10, 0x20, 0x30]));
+        assert_eq!(c.rest[1], Point::new(20.0, 10.0));
+    }
+
+    fn message(toml: &str) -> String {
+        let d = tempfile::tempdir().unwrap();
+        let e = read_character(&write_fixture(d.path(), toml)).unwrap_err();
+        assert!(e.is_user_error(), "{e}");
+        e.to_string()
+    }
+
+    #[test]
+    fn errors_name_line_joint_and_fix() {
+        let m = message(&OK.replace("y = 10", "y = 70"));
+        assert!(
+            m.contains("line 9: joint \"head\"") && m.contains("outside"),
+            "{m}"
+        );
+        let m = message(&OK.replace("x = 20\ny = 10", "x = 2\ny = 10"));
+        assert!(m.contains("transparent"), "{m}");
+        let m = message(&OK.replace("c.png", "nope.png"));
+        assert!(m.contains("not found"), "{m}");
+        let m = message(&OK.replace("layer", "layr"));
+        assert!(m.contains("line 14") && m.contains("layr"), "{m}");
+        let m = message(&OK.replace("\"hip\"\nlayer", "\"hips\"\nlayer"));
+        assert!(m.contains("parent \"hips\""), "{m}");
+    }
+
+    #[test]
+    fn match_source_checks_names_and_topology() {
+        let d = tempfile::tempdir().unwrap();
+        let c = read_character(&write_fixture(d.path(), OK)).unwrap();
+        let src = Skeleton::new(vec!["head".into(), "hip".into()], vec![Some(1), None]);
+        assert_eq!(c.match_source(&src, Path::new("s")).unwrap(), vec![1, 0]);
+        let flat = Skeleton::new(vec!["head".into(), "hip".into()], vec![None, None]);
+        let m = c
+            .match_source(&flat, Path::new("s"))
+            .unwrap_err()
+            .to_string();
+        assert!(m.contains("topology mismatch"), "{m}");
+        let other = Skeleton::new(vec!["top".into(), "hip".into()], vec![Some(1), None]);
+        let m = c
+            .match_source(&other, Path::new("s"))
+            .unwrap_err()
+            .to_string();
+        assert!(m.contains("unmapped joint") && m.contains("[map]"), "{m}");
+        let mapped = OK.to_owned() + "\n[map]\nhead = \"top\"\n";
+        let c = read_character(&write_fixture(d.path(), &mapped)).unwrap();
+        assert_eq!(c.match_source(&other, Path::new("s")).unwrap(), vec![1, 0]);
+    }
+}

@@ -1,0 +1,165 @@
+//! The files `mocap2d retarget` writes into `RUN/retarget/`, each atomically:
+//!
+//! ```text
+//! pose.csv        frame,joint,x,y            target joints, output px (3 decimals)
+//! bones.csv       frame,bone,length,angle    bone "parent->child": px (3 decimals), radians
+//!                                            clockwise on screen, unwrapped (5 decimals)
+//! retarget.toml   the target file's hash, placement, frame size and options, so that
+//!                 `mocap2d render` can check it draws the same character
+//! ```
+//! Rows are by frame, then target-file order.
+
+use super::{Placement, Retargeted, P64};
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The header of `pose.csv`.
+pub const POSE_HEADER: &str = "frame,joint,x,y";
+/// The header of `bones.csv`.
+pub const BONES_HEADER: &str = "frame,bone,length,angle";
+
+/// What `retarget.toml` records.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RetargetManifest {
+    pub tool: String,
+    pub version: String,
+    /// The target character file, as given.
+    pub target: String,
+    /// blake3 of the target character file's text.
+    pub target_blake3: String,
+    /// blake3 of the run's `tracks.csv`.
+    pub tracks_blake3: String,
+    /// Output frame size (px) and rate (frames/s), from the run.
+    pub width: u32,
+    pub height: u32,
+    pub fps: f64,
+    /// Output px per image px.
+    pub scale: f64,
+    /// Output px of the image origin.
+    pub offset_x: f64,
+    pub offset_y: f64,
+    /// `none`, `median:N` or `gaussian:S`.
+    pub smooth: String,
+    /// Cartoon filter strength (0 = off) and σ (frames).
+    pub cartoon_strength: f64,
+    pub cartoon_sigma_frames: f64,
+}
+
+impl RetargetManifest {
+    /// The placement it records.
+    pub fn placement(&self) -> Placement {
+        Placement {
+            scale: self.scale,
+            offset: [self.offset_x, self.offset_y],
+        }
+    }
+}
+
+/// `pose.csv` text for `r`, joints named by `names`.
+pub fn pose_csv(r: &Retargeted, names: &[String]) -> String {
+    let mut s = String::with_capacity(r.frames.len() * names.len() * 28);
+    s.push_str(POSE_HEADER);
+    s.push('\n');
+    for (f, joints) in r.frames.iter().zip(&r.joints) {
+        for (name, p) in names.iter().zip(joints) {
+            let _ = writeln!(s, "{f},{name},{:.3},{:.3}", p[0], p[1]);
+        }
+    }
+    s
+}
+
+/// The name of bone `parent -> child` in `bones.csv`.
+pub fn bone_name(names: &[String], (p, c): (usize, usize)) -> String {
+    format!("{}->{}", names[p], names[c])
+}
+
+/// `bones.csv` text for `r`.
+pub fn bones_csv(r: &Retargeted, names: &[String]) -> String {
+    let bone_names: Vec<String> = r.bones.iter().map(|&b| bone_name(names, b)).collect();
+    let mut s = String::with_capacity(r.frames.len() * r.bones.len() * 36);
+    s.push_str(BONES_HEADER);
+    s.push('\n');
+    for (t, f) in r.frames.iter().enumerate() {
+        for (b, name) in bone_names.iter().enumerate() {
+            let _ = writeln!(s, "{f},{name},{:.3},{:.5}", r.length[t][b], r.angle[t][b]);
+        }
+    }
+    s
+}
+
+#[derive(Deserialize)]
+struct PoseRow {
+    frame: u64,
+    joint: String,
+    x: f64,
+    y: f64,
+}
+
+/// Reads `pose.csv`: the frames and `[t][joint]` positions (px), joints in the order of `names`
+/// (every frame must list exactly those joints in that order).
+pub fn read_pose(path: &Path, names: &[String]) -> Result<(Vec<u64>, Vec<Vec<P64>>)> {
+    let err = |msg: String| Error::RunFolder {
+        path: path.to_owned(),
+        msg,
+    };
+    let mut rdr = csv::Reader::from_path(path).map_err(|e| {
+        err(format!(
+            "cannot read the retargeted pose ({e}); run `mocap2d retarget RUN --target ...` first"
+        ))
+    })?;
+    let mut frames = Vec::new();
+    let mut joints: Vec<Vec<P64>> = Vec::new();
+    for (i, row) in rdr.deserialize::<PoseRow>().enumerate() {
+        let row = row.map_err(|e| err(format!("line {}: {e}", i + 2)))?;
+        let k = i % names.len();
+        if k == 0 {
+            frames.push(row.frame);
+            joints.push(Vec::with_capacity(names.len()));
+        }
+        if row.joint != names[k]
+            || Some(&row.frame) != frames.last()
+            || !row.x.is_finite()
+            || !row.y.is_finite()
+        {
+            return Err(err(format!(
+                "line {}: expected joint {:?} of frame {}; was it written for another character? \
+                 run `mocap2d retarget` again",
+                i + 2,
+                names[k],
+                frames.last().expect("pushed")
+            )));
+        }
+        joints.last_mut().expect("pushed").push([row.x, row.y]);
+    }
+    if joints.is_empty() || joints.last().is_some_and(|j| j.len() != names.len()) {
+        return Err(err(
+            "empty or cut short; run `mocap2d retarget` again".into()
+        ));
+    }
+    Ok((frames, joints))
+}
+
+/// Reads `retarget.toml`.
+pub fn read_manifest(path: &Path) -> Result<RetargetManifest> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::RunFolder {
+        path: path.to_owned(),
+        msg: format!("cannot read ({e}); run `mocap2d retarget RUN --target ...` first"),
+    })?;
+    toml::from_str(&text).map_err(|e| Error::RunFolder {
+        path: path.to_owned(),
+        msg: format!(
+            "damaged or edited: {}; run `mocap2d retarget` again",
+            e.message()
+        ),
+    })
+}
+
+/// `retarget.toml` text.
+pub fn manifest_toml(m: &RetargetManifest) -> String {
+    let body = toml::to_string(m).expect("plain TOML values");
+    format!(
+        "# written by `mocap2d retarget`; `mocap2d render` checks the target against it\n{body}"
+    )
+}

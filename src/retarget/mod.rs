@@ -1,0 +1,366 @@
+//! Retargeting (METHOD.md §3, thesis eq. 4.7–4.8): the captured motion drives a target skeleton
+//! of the same topology.
+//!
+//! For bone m at frame t with source length `l_mt` and angle `a_mt` (unwrapped):
+//! `Δl_mt = l_mt / l_m,t−1`, `Δa_mt = a_mt − a_m,t−1` (4.7), applied to the target's rest bone:
+//! `l'_mt = l'_m,t−1 · Δl_mt`, `a'_mt = a'_m,t−1 + Δa_mt` (4.8). The products and sums telescope,
+//! so they are computed as `l'_mt = l'_m0 · l_mt / l_m0` and `a'_mt = a'_m0 + (a_mt − a_m0)`:
+//! the same numbers without rounding piling up over a long clip. Each root follows its source
+//! root's displacement from the first frame, scaled by the ratio of skeleton sizes (sums of rest
+//! bone lengths); the other joints follow by forward kinematics.
+//!
+//! Before that, optionally, the source joints are smoothed ([`Smooth`]) and each bone's length
+//! and angle signals go through the cartoon filter ([`Cartoon`], METHOD.md §5).
+//! [`files`] reads and writes `retarget/pose.csv`, `bones.csv` and `retarget.toml`.
+
+pub mod files;
+pub mod filter;
+
+use crate::character::Scale;
+use crate::error::{Error, Result};
+use crate::geom::Point;
+use crate::run::TrackRow;
+use crate::skeleton::Skeleton;
+use std::path::Path;
+
+/// A position in f64 px (image space, see [`crate::geom`]).
+pub type P64 = [f64; 2];
+
+/// Joint positions over consecutive frames.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Motion {
+    /// The frame index of each row of `joints` (consecutive).
+    pub frames: Vec<u64>,
+    /// `[t][joint]`: position (px), joints in their skeleton's order.
+    pub joints: Vec<Vec<P64>>,
+}
+
+/// The cartoon animation filter's settings (METHOD.md §5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cartoon {
+    /// A: 0 is off; 1–3 is visible.
+    pub strength: f64,
+    /// σ of the Gaussian, frames.
+    pub sigma_frames: f64,
+}
+
+/// Default σ of the cartoon filter, frames.
+pub const DEFAULT_CARTOON_SIGMA: f64 = 4.0;
+
+/// Smoothing of the source joint tracks before retargeting.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Smooth {
+    /// Running median over this many frames (odd).
+    Median { window_frames: usize },
+    /// Gaussian with this standard deviation (frames).
+    Gaussian { sigma_frames: f64 },
+}
+
+impl std::fmt::Display for Smooth {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Smooth::Median { window_frames } => write!(f, "median:{window_frames}"),
+            Smooth::Gaussian { sigma_frames } => write!(f, "gaussian:{sigma_frames}"),
+        }
+    }
+}
+
+impl std::str::FromStr for Smooth {
+    type Err = String;
+    /// `median:N` (N odd frames, 3 to 99) or `gaussian:S` (S frames, above 0 to 30).
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let bad = || {
+            format!("{s:?}: expected median:N (odd N, 3 to 99) or gaussian:S (S frames, 0 to 30)")
+        };
+        let (kind, v) = s.split_once(':').ok_or_else(bad)?;
+        match kind {
+            "median" => match v.parse::<usize>() {
+                Ok(n) if n % 2 == 1 && (3..=99).contains(&n) => {
+                    Ok(Smooth::Median { window_frames: n })
+                }
+                _ => Err(bad()),
+            },
+            "gaussian" => match v.parse::<f64>() {
+                Ok(g) if g > 0.0 && g <= 30.0 => Ok(Smooth::Gaussian { sigma_frames: g }),
+                _ => Err(bad()),
+            },
+            _ => Err(bad()),
+        }
+    }
+}
+
+/// What `retarget` does on top of eq. 4.7–4.8.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RetargetOptions {
+    pub smooth: Option<Smooth>,
+    pub cartoon: Option<Cartoon>,
+}
+
+/// Where the target's rest skeleton goes in the output frame: `out = image · scale + offset`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placement {
+    /// Output px per image px.
+    pub scale: f64,
+    /// px.
+    pub offset: P64,
+}
+
+impl Placement {
+    /// An image position (px) in output px.
+    pub fn apply(&self, p: Point) -> P64 {
+        [
+            p.x as f64 * self.scale + self.offset[0],
+            p.y as f64 * self.scale + self.offset[1],
+        ]
+    }
+}
+
+/// A retargeted animation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Retargeted {
+    pub frames: Vec<u64>,
+    /// `[t][target joint]`: position, output px.
+    pub joints: Vec<Vec<P64>>,
+    /// Target bones `(parent, child)`, in the child's file order.
+    pub bones: Vec<(usize, usize)>,
+    /// `[t][bone]`: length, px.
+    pub length: Vec<Vec<f64>>,
+    /// `[t][bone]`: angle, radians clockwise on screen, unwrapped.
+    pub angle: Vec<Vec<f64>>,
+}
+
+/// Sum of the bone lengths of `joints` (px): the size of a skeleton.
+pub fn skeleton_size(skeleton: &Skeleton, joints: &[P64]) -> f64 {
+    skeleton
+        .bones()
+        .iter()
+        .map(|&(p, c)| dist(joints[p], joints[c]))
+        .sum()
+}
+
+/// Places the target's rest skeleton (`rest`, image px) in the output frame next to the source's
+/// first frame (`source_rest`, px): scaled by `scale` ([`Scale::Fit`]: to the source skeleton's
+/// size), its first root at the x of its source joint, and its lowest joint at the height of the
+/// source's lowest joint, so both stand on the same floor.
+pub fn place(
+    target: &Skeleton,
+    rest: &[Point],
+    scale: Scale,
+    source: &Skeleton,
+    source_rest: &[P64],
+    to_source: &[usize],
+) -> Placement {
+    let rest64: Vec<P64> = rest.iter().map(|p| [p.x as f64, p.y as f64]).collect();
+    let k = match scale {
+        Scale::Factor(f) => f as f64,
+        Scale::Fit => {
+            let t = skeleton_size(target, &rest64);
+            if t > 1e-9 {
+                skeleton_size(source, source_rest) / t
+            } else {
+                1.0
+            }
+        }
+    };
+    let root = target.topo_order().first().copied().unwrap_or(0);
+    let lowest = |ps: &mut dyn Iterator<Item = f64>| ps.fold(f64::NEG_INFINITY, f64::max);
+    let ox = source_rest[to_source[root]][0] - k * rest64[root][0];
+    let oy = lowest(&mut source_rest.iter().map(|p| p[1]))
+        - k * lowest(&mut rest64.iter().map(|p| p[1]));
+    Placement {
+        scale: k,
+        offset: [ox, oy],
+    }
+}
+
+/// Builds the source motion from `tracks.csv` rows (from `path`, for messages): every frame
+/// must list every joint of `skeleton` once, frames consecutive.
+pub fn motion_from_tracks(rows: &[TrackRow], skeleton: &Skeleton, path: &Path) -> Result<Motion> {
+    let err = |msg: String| Error::RunFolder {
+        path: path.to_owned(),
+        msg,
+    };
+    let n = skeleton.len();
+    let mut frames = Vec::new();
+    let mut joints: Vec<Vec<P64>> = Vec::new();
+    let mut seen: Vec<bool> = Vec::new();
+    for (i, r) in rows.iter().enumerate() {
+        if frames.last() != Some(&r.frame) {
+            if let Some(&last) = frames.last() {
+                if seen.iter().any(|s| !s) {
+                    return Err(err(format!("frame {last} does not list every joint")));
+                }
+                if r.frame != last + 1 {
+                    return Err(err(format!(
+                        "line {}: frame {} follows frame {last}; frames must be consecutive",
+                        i + 2,
+                        r.frame
+                    )));
+                }
+            }
+            frames.push(r.frame);
+            joints.push(vec![[0.0; 2]; n]);
+            seen = vec![false; n];
+        }
+        let j = skeleton.index_of(&r.joint).ok_or_else(|| {
+            err(format!(
+                "line {}: joint {:?} is not in the run's seed file",
+                i + 2,
+                r.joint
+            ))
+        })?;
+        if seen[j] || !(r.x.is_finite() && r.y.is_finite()) {
+            return Err(err(format!(
+                "line {}: joint {:?} listed twice in frame {} or not a finite position",
+                i + 2,
+                r.joint,
+                r.frame
+            )));
+        }
+        seen[j] = true;
+        joints.last_mut().expect("pushed above")[j] = [r.x as f64, r.y as f64];
+    }
+    if frames.is_empty() {
+        return Err(err("no tracked frames".into()));
+    }
+    if seen.iter().any(|s| !s) {
+        return Err(err(format!(
+            "frame {} does not list every joint",
+            frames.last().expect("non-empty")
+        )));
+    }
+    Ok(Motion { frames, joints })
+}
+
+/// Retargets `motion` (source joints, in `source` order) onto the target skeleton whose rest pose
+/// in output px is `rest_out`; `to_source[j]` is target joint j's source joint (see
+/// [`crate::character::Character::match_source`]). Implements eq. 4.7–4.8 (see the module docs).
+pub fn retarget(
+    motion: &Motion,
+    source: &Skeleton,
+    target: &Skeleton,
+    to_source: &[usize],
+    rest_out: &[P64],
+    opts: &RetargetOptions,
+) -> Retargeted {
+    let frames = motion.frames.len();
+    let src = smooth_motion(&motion.joints, opts.smooth);
+    let bones = target.bones();
+    let mut length = vec![vec![0.0; bones.len()]; frames];
+    let mut angle = vec![vec![0.0; bones.len()]; frames];
+    for (b, &(p, c)) in bones.iter().enumerate() {
+        let (sp, sc) = (to_source[p], to_source[c]);
+        let (mut l, mut a) = bone_signals(&src, sp, sc);
+        if let Some(f) = opts.cartoon {
+            l = filter::cartoon(&l, f.strength, f.sigma_frames);
+            a = filter::cartoon(&a, f.strength, f.sigma_frames);
+        }
+        let l0 = l[0].max(1e-9);
+        let rest_len = dist(rest_out[p], rest_out[c]);
+        let rest_angle = angle_of(rest_out[p], rest_out[c]);
+        for t in 0..frames {
+            length[t][b] = (rest_len * l[t] / l0).max(0.0);
+            angle[t][b] = rest_angle + (a[t] - a[0]);
+        }
+    }
+    let src_size = skeleton_size(source, &src[0]);
+    let ratio = if src_size > 1e-9 {
+        skeleton_size(target, rest_out) / src_size
+    } else {
+        1.0
+    };
+    let order = target.topo_order();
+    let bone_of: Vec<Option<usize>> = (0..target.len())
+        .map(|j| bones.iter().position(|&(_, c)| c == j))
+        .collect();
+    let joints = (0..frames)
+        .map(|t| {
+            let mut pos = vec![[0.0; 2]; target.len()];
+            for &j in &order {
+                pos[j] = match (target.parent(j), bone_of[j]) {
+                    (Some(p), Some(b)) => {
+                        let (l, a) = (length[t][b], angle[t][b]);
+                        [pos[p][0] + l * a.cos(), pos[p][1] + l * a.sin()]
+                    }
+                    _ => {
+                        let s = to_source[j];
+                        [
+                            rest_out[j][0] + ratio * (src[t][s][0] - src[0][s][0]),
+                            rest_out[j][1] + ratio * (src[t][s][1] - src[0][s][1]),
+                        ]
+                    }
+                };
+            }
+            pos
+        })
+        .collect();
+    Retargeted {
+        frames: motion.frames.clone(),
+        joints,
+        bones,
+        length,
+        angle,
+    }
+}
+
+/// Length (px) and unwrapped angle (radians) of the source bone `p → c` over the frames. A bone
+/// of (near) zero length keeps its previous angle.
+fn bone_signals(src: &[Vec<P64>], p: usize, c: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut l = Vec::with_capacity(src.len());
+    let mut a: Vec<f64> = Vec::with_capacity(src.len());
+    for f in src {
+        let len = dist(f[p], f[c]);
+        let raw = angle_of(f[p], f[c]);
+        let ang = match a.last() {
+            None => raw,
+            Some(&prev) if len < 1e-9 => prev,
+            Some(&prev) => prev + wrap(raw - prev),
+        };
+        l.push(len);
+        a.push(ang);
+    }
+    (l, a)
+}
+
+fn smooth_motion(joints: &[Vec<P64>], smooth: Option<Smooth>) -> Vec<Vec<P64>> {
+    let Some(s) = smooth else {
+        return joints.to_vec();
+    };
+    let mut out = joints.to_vec();
+    let n = joints.first().map_or(0, Vec::len);
+    for j in 0..n {
+        for axis in 0..2 {
+            let x: Vec<f64> = joints.iter().map(|f| f[j][axis]).collect();
+            let y = match s {
+                Smooth::Median { window_frames } => filter::median(&x, window_frames),
+                Smooth::Gaussian { sigma_frames } => filter::gaussian(&x, sigma_frames),
+            };
+            for (f, v) in out.iter_mut().zip(y) {
+                f[j][axis] = v;
+            }
+        }
+    }
+    out
+}
+
+/// An angle (radians) wrapped into `(-π, π]` (f64 twin of [`crate::geom::wrap_angle`]).
+fn wrap(a: f64) -> f64 {
+    let r = a.rem_euclid(std::f64::consts::TAU);
+    if r > std::f64::consts::PI {
+        r - std::f64::consts::TAU
+    } else {
+        r
+    }
+}
+
+fn dist(a: P64, b: P64) -> f64 {
+    (b[0] - a[0]).hypot(b[1] - a[1])
+}
+
+/// Direction of `a → b`, radians clockwise on screen.
+fn angle_of(a: P64, b: P64) -> f64 {
+    (b[1] - a[1]).atan2(b[0] - a[0])
+}
+
+#[cfg(test)]
+mod tests;

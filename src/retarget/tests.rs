@@ -1,0 +1,180 @@
+//! Retargeting tests on hand-made skeletons and motions.
+
+use super::*;
+
+/// pelvis (root) -> chest -> head; pelvis -> knee -> ankle.
+fn skel() -> Skeleton {
+    Skeleton::new(
+        ["pelvis", "chest", "head", "knee", "ankle"]
+            .map(String::from)
+            .to_vec(),
+        vec![None, Some(0), Some(1), Some(0), Some(3)],
+    )
+}
+
+/// A motion that walks, bends, stretches and spins a bone once around (angles cross ±π).
+fn wobbly(frames: usize) -> Motion {
+    let joints = (0..frames)
+        .map(|t| {
+            let t = t as f64;
+            let root = [100.0 + 2.0 * t, 200.0 + 3.0 * (0.3 * t).sin()];
+            let polar =
+                |from: P64, len: f64, a: f64| [from[0] + len * a.cos(), from[1] + len * a.sin()];
+            let chest = polar(
+                root,
+                50.0 * (1.0 + 0.2 * (0.2 * t).sin()),
+                -1.5 + 0.1 * (0.4 * t).sin(),
+            );
+            let head = polar(chest, 20.0, -1.5 + t * std::f64::consts::TAU / 40.0);
+            let knee = polar(root, 45.0, 1.7 + 0.5 * (0.25 * t).sin());
+            let ankle = polar(
+                knee,
+                44.0 * (1.0 - 0.25 * (0.3 * t).sin()),
+                1.6 + 0.6 * (0.25 * t).cos(),
+            );
+            vec![root, chest, head, knee, ankle]
+        })
+        .collect();
+    Motion {
+        frames: (5..5 + frames as u64).collect(),
+        joints,
+    }
+}
+
+#[test]
+fn identity_retarget_reproduces_the_tracks() {
+    let s = skel();
+    let m = wobbly(80);
+    let ident: Vec<usize> = (0..s.len()).collect();
+    let rest: Vec<Point> = m.joints[0]
+        .iter()
+        .map(|p| Point::new(p[0] as f32, p[1] as f32))
+        .collect();
+    let place = place(&s, &rest, Scale::Fit, &s, &m.joints[0], &ident);
+    let rest_out: Vec<P64> = rest.iter().map(|&p| place.apply(p)).collect();
+    let r = retarget(&m, &s, &s, &ident, &rest_out, &RetargetOptions::default());
+    assert_eq!(r.frames, m.frames);
+    let mut worst: f64 = 0.0;
+    for (a, b) in r.joints.iter().zip(&m.joints) {
+        for (p, q) in a.iter().zip(b) {
+            worst = worst.max(dist(*p, *q));
+        }
+    }
+    // The rest position only goes through f32 (the character file's precision).
+    assert!(worst < 0.01, "worst joint error {worst} px");
+}
+
+#[test]
+fn length_ratios_and_angle_increments_carry_over_exactly() {
+    let s = skel();
+    let m = wobbly(120);
+    let ident: Vec<usize> = (0..s.len()).collect();
+    // A target with other proportions and another rest pose.
+    let rest_out: Vec<P64> = vec![
+        [300.0, 100.0],
+        [310.0, 20.0],
+        [300.0, 0.0],
+        [280.0, 150.0],
+        [300.0, 220.0],
+    ];
+    let r = retarget(&m, &s, &s, &ident, &rest_out, &RetargetOptions::default());
+    for (b, &(p, c)) in s.bones().iter().enumerate() {
+        let (l, a) = bone_signals(&m.joints, p, c);
+        for t in 1..m.frames.len() {
+            let want = l[t] / l[t - 1];
+            let got = r.length[t][b] / r.length[t - 1][b];
+            assert!(
+                (got - want).abs() < 1e-12,
+                "bone {b} frame {t}: ratio {got} vs {want}"
+            );
+            let want = a[t] - a[t - 1];
+            let got = r.angle[t][b] - r.angle[t - 1][b];
+            assert!(
+                (got - want).abs() < 1e-12,
+                "bone {b} frame {t}: Δangle {got} vs {want}"
+            );
+            // The joints agree with the bone table.
+            let (jp, jc) = (r.joints[t][p], r.joints[t][c]);
+            assert!((dist(jp, jc) - r.length[t][b]).abs() < 1e-9);
+        }
+    }
+    // The spinning head bone turned once around: unwrapped, it never jumps by 2π.
+    let head = s.bones().iter().position(|&(_, c)| c == 2).unwrap();
+    let total = r.angle.last().unwrap()[head] - r.angle[0][head];
+    assert!(
+        (total - 119.0 * std::f64::consts::TAU / 40.0).abs() < 1e-9,
+        "{total}"
+    );
+    // The root moves by the source's displacement times the size ratio.
+    let ratio = skeleton_size(&s, &rest_out) / skeleton_size(&s, &m.joints[0]);
+    let t = 50;
+    for axis in 0..2 {
+        let want = ratio * (m.joints[t][0][axis] - m.joints[0][0][axis]);
+        assert!((r.joints[t][0][axis] - rest_out[0][axis] - want).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn place_fits_size_and_stands_on_the_source_floor() {
+    let s = skel();
+    let src: Vec<P64> = vec![
+        [100.0, 100.0],
+        [100.0, 50.0],
+        [100.0, 30.0],
+        [100.0, 150.0],
+        [100.0, 200.0],
+    ];
+    // The same figure at half size elsewhere in its image.
+    let rest: Vec<Point> = src
+        .iter()
+        .map(|p| Point::new((p[0] * 0.5 + 7.0) as f32, (p[1] * 0.5 + 3.0) as f32))
+        .collect();
+    let ident: Vec<usize> = (0..s.len()).collect();
+    let pl = place(&s, &rest, Scale::Fit, &s, &src, &ident);
+    assert!((pl.scale - 2.0).abs() < 1e-9);
+    for (p, q) in rest.iter().zip(&src) {
+        let o = pl.apply(*p);
+        assert!(dist(o, *q) < 1e-4, "{o:?} vs {q:?}");
+    }
+    let pl = place(&s, &rest, Scale::Factor(1.0), &s, &src, &ident);
+    assert_eq!(pl.scale, 1.0);
+    assert!(
+        (pl.apply(rest[4])[1] - 200.0).abs() < 1e-9,
+        "lowest joint on the floor"
+    );
+}
+
+#[test]
+fn motion_from_tracks_wants_every_joint_every_frame() {
+    let s = skel();
+    let row = |f: u64, j: &str| TrackRow {
+        frame: f,
+        joint: j.into(),
+        x: 1.0,
+        y: 2.0,
+        angle: 0.0,
+        score: 1.0,
+        status: "ok".into(),
+    };
+    let names = ["pelvis", "chest", "head", "knee", "ankle"];
+    let mut rows: Vec<TrackRow> = (3..6).flat_map(|f| names.map(|n| row(f, n))).collect();
+    let m = motion_from_tracks(&rows, &s, Path::new("tracks.csv")).unwrap();
+    assert_eq!(m.frames, vec![3, 4, 5]);
+    rows.remove(7);
+    let e = motion_from_tracks(&rows, &s, Path::new("tracks.csv")).unwrap_err();
+    assert!(
+        e.to_string().contains("frame 4 does not list every joint"),
+        "{e}"
+    );
+}
+
+#[test]
+fn smooth_parses_its_two_forms() {
+    assert_eq!("median:5".parse(), Ok(Smooth::Median { window_frames: 5 }));
+    assert_eq!(
+        "gaussian:1.5".parse(),
+        Ok(Smooth::Gaussian { sigma_frames: 1.5 })
+    );
+    assert!("median:4".parse::<Smooth>().is_err());
+    assert!("box:3".parse::<Smooth>().is_err());
+}

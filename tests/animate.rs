@@ -1,0 +1,370 @@
+//! Retarget and render, end to end, on run folders built from synthetic ground truth (so the
+//! tests do not depend on tracking accuracy): identity retarget, area preservation over a squash
+//! clip, no inverted triangle over a walk, the cartoon filter on a step, deterministic renders,
+//! and the exit code and message of every target-file error.
+
+use mocap2d::app::{self, RenderOptions, Renderer};
+use mocap2d::character::read_character;
+use mocap2d::deform::DeformOptions;
+use mocap2d::geom::Point;
+use mocap2d::progress::NoProgress;
+use mocap2d::render::{coverage, Texture};
+use mocap2d::retarget::files::read_pose;
+use mocap2d::retarget::{Cartoon, RetargetOptions};
+use mocap2d::synth::{self, Scenario, SynthClip, SynthOptions};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn characters(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("configs/characters")
+        .join(name)
+}
+
+fn clip(scenario: Scenario, w: u32, h: u32, frames: u32) -> SynthClip {
+    synth::render(&SynthOptions {
+        scenario,
+        width: w,
+        height: h,
+        seed: 1,
+        frames: Some(frames),
+    })
+}
+
+/// A run folder whose tracks are `clip`'s ground truth: tracks.csv, seeds.toml, run.toml.
+fn run_from_gt(dir: &Path, clip: &SynthClip) -> PathBuf {
+    let run = dir.join("gt.mocap");
+    std::fs::create_dir_all(&run).unwrap();
+    let mut t = String::from("frame,joint,x,y,angle,score,status\n");
+    for (f, joints) in clip.gt.iter().enumerate() {
+        for (name, (x, y)) in clip.joint_names.iter().zip(joints) {
+            let _ = writeln!(t, "{f},{name},{x:.3},{y:.3},0.0000,1.000,ok");
+        }
+    }
+    std::fs::write(run.join("tracks.csv"), t).unwrap();
+    std::fs::write(run.join("seeds.toml"), clip.seeds_toml()).unwrap();
+    std::fs::write(
+        run.join("run.toml"),
+        format!(
+            "width = {}\nheight = {}\nfps = 30.0\n",
+            clip.width(),
+            clip.height()
+        ),
+    )
+    .unwrap();
+    run
+}
+
+/// The joints of every frame of `RUN/retarget/pose.csv`, as points.
+fn poses(run: &Path, names: &[String]) -> Vec<Vec<Point>> {
+    let (_, joints) = read_pose(&run.join("retarget/pose.csv"), names).unwrap();
+    joints
+        .iter()
+        .map(|f| {
+            f.iter()
+                .map(|p| Point::new(p[0] as f32, p[1] as f32))
+                .collect()
+        })
+        .collect()
+}
+
+fn mocap2d(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn identity_retarget_reproduces_the_tracked_joints() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 160, 120, 40);
+    let run = run_from_gt(d.path(), &c);
+    // The target is the source skeleton: its rest pose is the seed frame, on an opaque image.
+    image::RgbaImage::from_pixel(160, 120, image::Rgba([90, 90, 90, 255]))
+        .save(d.path().join("same.png"))
+        .unwrap();
+    let mut toml = String::from("image = \"same.png\"\n");
+    for (j, name) in c.joint_names.iter().enumerate() {
+        let (x, y) = c.gt[0][j];
+        let _ = write!(
+            toml,
+            "\n[[joint]]\nname = \"{name}\"\nx = {x:.3}\ny = {y:.3}\n"
+        );
+        if let Some(p) = c.parents[j] {
+            let _ = writeln!(toml, "parent = \"{}\"", c.joint_names[p]);
+        }
+    }
+    let target = d.path().join("same.toml");
+    std::fs::write(&target, toml).unwrap();
+    let o = mocap2d(&["retarget", s(&run), "--target", s(&target)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got = poses(&run, &c.joint_names);
+    let mut worst = 0.0f32;
+    for (f, joints) in got.iter().enumerate() {
+        for (j, p) in joints.iter().enumerate() {
+            let (x, y) = c.gt[f][j];
+            worst = worst.max((p - Point::new(x, y)).norm());
+        }
+    }
+    assert_eq!(got.len(), 40);
+    assert!(worst <= 0.01, "worst joint error {worst} px");
+    let bones = std::fs::read_to_string(run.join("retarget/bones.csv")).unwrap();
+    assert!(
+        bones.starts_with("frame,bone,length,angle\n0,pelvis->chest,"),
+        "{}",
+        &bones[..60]
+    );
+}
+
+/// Mesh area drawn (alpha summed, overlaps counted) of every frame, relative to the rest frame.
+fn area_changes(run: &Path, target: &Path, deform: DeformOptions) -> Vec<f64> {
+    let ch = read_character(target).unwrap();
+    let m = mocap2d::retarget::files::read_manifest(&run.join("retarget/retarget.toml")).unwrap();
+    let r = Renderer::new(&ch, m.scale, m.width, m.height, deform).unwrap();
+    let tex = Texture::new(&ch.image);
+    let frames = poses(run, &ch.skeleton.names);
+    let area = |j: &[Point]| {
+        let pos = r.rig.deform(j);
+        coverage(
+            &pos,
+            &r.rig.mesh.rest,
+            &r.rig.mesh.triangles,
+            &tex,
+            m.width,
+            m.height,
+        )
+    };
+    let rest = area(&frames[0]);
+    frames.iter().map(|j| area(j) / rest - 1.0).collect()
+}
+
+#[test]
+fn area_preservation_holds_the_silhouette_area_over_a_squash_clip() {
+    let d = tempfile::tempdir().unwrap();
+    // Bones stretch and squash by ±30 %.
+    let c = clip(Scenario::Squash, 480, 360, 60);
+    let run = run_from_gt(d.path(), &c);
+    for name in ["imp.toml", "robot.toml"] {
+        let target = characters(name);
+        app::retarget(&run, &target, &RetargetOptions::default()).unwrap();
+        let with = area_changes(&run, &target, DeformOptions::default());
+        let worst = with.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            worst <= 0.03,
+            "{name}: area off by up to {:.1} %",
+            100.0 * worst
+        );
+        let without = area_changes(
+            &run,
+            &target,
+            DeformOptions {
+                area_preservation: false,
+                stage_two: true,
+            },
+        );
+        let worst_without = without.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(
+            worst_without > 2.0 * worst,
+            "{name}: without area preservation {:.1} %, with {:.1} %",
+            100.0 * worst_without,
+            100.0 * worst
+        );
+    }
+}
+
+#[test]
+fn no_triangle_inverts_during_a_walk() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 480, 360, 80);
+    let run = run_from_gt(d.path(), &c);
+    for name in ["imp.toml", "robot.toml"] {
+        let target = characters(name);
+        app::retarget(&run, &target, &RetargetOptions::default()).unwrap();
+        let ch = read_character(&target).unwrap();
+        let m =
+            mocap2d::retarget::files::read_manifest(&run.join("retarget/retarget.toml")).unwrap();
+        let r = Renderer::new(&ch, m.scale, 480, 360, DeformOptions::default()).unwrap();
+        for (f, joints) in poses(&run, &ch.skeleton.names).iter().enumerate() {
+            let areas = r.rig.triangle_areas(&r.rig.deform(joints));
+            let (t, worst) =
+                areas
+                    .iter()
+                    .enumerate()
+                    .fold((0, f32::MAX), |m, (t, &a)| if a < m.1 { (t, a) } else { m });
+            assert!(
+                worst > 0.0,
+                "{name}: frame {f}: triangle {t} inverted (area {worst} px²)"
+            );
+        }
+    }
+}
+
+#[test]
+fn cartoon_filter_anticipates_and_overshoots_a_step() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 160, 120, 2);
+    let mut stepped = c.clone();
+    // Hold frame 0 for 20 frames, then swing the left forearm down by 0.6 rad and hold 20 frames.
+    let (elbow, wrist) = (4, 5);
+    let base = c.gt[0].clone();
+    let (ex, ey) = base[elbow];
+    let (wx, wy) = base[wrist];
+    let (l, a) = ((wx - ex).hypot(wy - ey), (wy - ey).atan2(wx - ex));
+    let mut swung = base.clone();
+    swung[wrist] = (ex + l * (a + 0.6).cos(), ey + l * (a + 0.6).sin());
+    stepped.gt = (0..40)
+        .map(|t| if t < 20 { base.clone() } else { swung.clone() })
+        .collect();
+    let run = run_from_gt(d.path(), &stepped);
+    let opts = RetargetOptions {
+        smooth: None,
+        cartoon: Some(Cartoon {
+            strength: 2.0,
+            sigma_frames: 3.0,
+        }),
+    };
+    app::retarget(&run, &characters("imp.toml"), &opts).unwrap();
+    let bones = std::fs::read_to_string(run.join("retarget/bones.csv")).unwrap();
+    let angle: Vec<f64> = bones
+        .lines()
+        .filter(|l| l.contains(",elbow_l->wrist_l,"))
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(angle.len(), 40);
+    let (start, end) = (angle[0], angle[39]);
+    assert!(
+        (end - start - 0.6).abs() < 1e-3,
+        "the step is kept: {start} -> {end}"
+    );
+    let min = angle[..20].iter().cloned().fold(f64::MAX, f64::min);
+    let max = angle[20..].iter().cloned().fold(f64::MIN, f64::max);
+    assert!(min < start - 0.02, "no anticipation: min {min} vs {start}");
+    assert!(max > end + 0.02, "no follow-through: max {max} vs {end}");
+}
+
+#[test]
+#[cfg(feature = "ffmpeg")]
+fn renders_are_deterministic_whatever_the_thread_count() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 160, 120, 12);
+    let run = run_from_gt(d.path(), &c);
+    let target = characters("robot.toml");
+    let o = mocap2d(&[
+        "retarget",
+        s(&run),
+        "--target",
+        s(&target),
+        "--cartoon",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let render = |tag: &str, threads: &str| -> (Vec<u8>, Vec<Vec<u8>>) {
+        let (out, frames) = (d.path().join(format!("{tag}.mp4")), d.path().join(tag));
+        let o = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+            .args(["render", s(&run), "--target", s(&target), "--out", s(&out)])
+            .args(["--frames-dir", s(&frames)])
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let pngs = (0..12)
+            .map(|f| std::fs::read(frames.join(format!("{f:06}.png"))).unwrap())
+            .collect();
+        (std::fs::read(out).unwrap(), pngs)
+    };
+    let (v1, p1) = render("one", "1");
+    let (v2, p2) = render("two", "2");
+    assert_eq!(p1, p2, "PNG frames differ");
+    assert_eq!(v1, v2, "videos differ");
+    // The character is drawn: frame 6 differs from frame 0 and from the plain background.
+    assert_ne!(p1[0], p1[6]);
+}
+
+#[test]
+fn target_file_errors_exit_2_and_write_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 160, 120, 3);
+    let run = run_from_gt(d.path(), &c);
+    std::fs::copy(characters("imp.png"), d.path().join("imp.png")).unwrap();
+    let good = std::fs::read_to_string(characters("imp.toml")).unwrap();
+    let cases: [(&str, String, &str); 5] = [
+        (
+            "topology",
+            good.replacen("parent = \"elbow_l\"", "parent = \"chest\"", 1),
+            "topology mismatch",
+        ),
+        ("image", good.replace("imp.png", "gone.png"), "not found"),
+        (
+            "outside",
+            good.replacen("x = ", "x = -40 # ", 1),
+            "outside the",
+        ),
+        (
+            "unmapped",
+            good.replace("\"toe_r\"", "\"toe_right\""),
+            "unmapped joint",
+        ),
+        (
+            "key",
+            good.replacen("layer = ", "layr = ", 1),
+            "unknown field",
+        ),
+    ];
+    for (tag, text, want) in cases {
+        let target = d.path().join(format!("{tag}.toml"));
+        std::fs::write(&target, text).unwrap();
+        let o = mocap2d(&["retarget", s(&run), "--target", s(&target)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{tag}: {err}");
+        assert!(
+            err.contains(want) && err.contains(&format!("{tag}.toml")),
+            "{tag}: {err}"
+        );
+        assert!(!run.join("retarget").exists(), "{tag}: wrote retarget/");
+    }
+    // Render before retarget: exit 2, no video.
+    let out = d.path().join("v.mp4");
+    let o = mocap2d(&[
+        "render",
+        s(&run),
+        "--target",
+        s(&characters("imp.toml")),
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("mocap2d retarget"));
+    assert!(!out.exists());
+}
+
+#[test]
+fn render_with_another_target_than_retarget_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 160, 120, 3);
+    let run = run_from_gt(d.path(), &c);
+    app::retarget(&run, &characters("imp.toml"), &RetargetOptions::default()).unwrap();
+    let opts = RenderOptions {
+        run: run.clone(),
+        target: characters("robot.toml"),
+        out: None,
+        frames_dir: Some(d.path().join("frames")),
+        deform: DeformOptions::default(),
+    };
+    let e = app::render(&opts, &NoProgress).unwrap_err();
+    assert!(
+        e.is_user_error() && e.to_string().contains("imp.toml"),
+        "{e}"
+    );
+    assert!(!d.path().join("frames").exists());
+}
