@@ -1,22 +1,28 @@
-//! Tracking accuracy against ground truth, through the whole `track` command (render → H.264 →
-//! decode → background → track). Bounds are set at what the tracker measures today (see the
-//! README's Accuracy section), so a regression fails; they are well below the product's target
-//! table (issue: tracking to the product's bar), which the tracker does not reach yet.
+//! Tracking accuracy against ground truth, through the whole `track` command: render a synth
+//! clip at 640×360 (120 frames, seed 1), encode it to H.264, track it from the seed file the
+//! clip comes with, and compare with the exact joint positions. Bounds sit just under today's
+//! measured figures (in the comments), so a regression fails; the issue's targets are noted
+//! where the tracker does not reach them yet.
 
 use mocap2d::app::{eval, track, TrackOptions};
+use mocap2d::eval::read_gt;
 use mocap2d::progress::NoProgress;
+use mocap2d::run::tracks::read_tracks;
 use mocap2d::synth::{render, write_clip, Scenario, SynthOptions};
+use std::collections::HashMap;
 use std::path::Path;
 
-/// Tracks a 320×240, 60-frame synth clip and returns (median px, PCK@5 in 0–1).
-fn synth_accuracy(scenario: Scenario) -> (f32, f32) {
+/// Renders `scenario` at 640×360 (`frames`: its default length when `None`), tracks it, and
+/// returns (median px, PCK@5 in 0–1) with the folder holding `clip.mp4`, `gt.csv` and the run
+/// folder `run/`.
+fn synth_run(scenario: Scenario, frames: Option<u32>) -> ((f32, f32), tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
     let clip = render(&SynthOptions {
         scenario,
-        width: 320,
-        height: 240,
+        width: 640,
+        height: 360,
         seed: 1,
-        frames: Some(60),
+        frames,
     });
     write_clip(&clip, dir.path()).unwrap();
     let opts = TrackOptions {
@@ -26,7 +32,7 @@ fn synth_accuracy(scenario: Scenario) -> (f32, f32) {
     track(&opts, &NoProgress).unwrap();
     let line = &eval(&dir.path().join("run"), &dir.path().join("gt.csv"), false).unwrap()[0];
     println!("{scenario}: {line}");
-    parse_line(line)
+    (parse_line(line), dir)
 }
 
 /// Pulls median and PCK@5 out of an `eval` line.
@@ -38,31 +44,82 @@ fn parse_line(line: &str) -> (f32, f32) {
     (field("median=", "px"), field("PCK@5=", "%") / 100.0)
 }
 
-#[test]
-fn walk_tracks_most_joints_within_5px() {
-    // Measured: median 0.53 px, PCK@5 56.1 %.
-    let (median, pck5) = synth_accuracy(Scenario::Walk);
-    assert!(median <= 0.6, "median {median}");
-    assert!(pck5 >= 0.55, "PCK@5 {pck5}");
+/// Asserts a scenario's median (px) and PCK@5 (0–1) bounds.
+fn assert_accuracy(scenario: Scenario, max_median: f32, min_pck5: f32) {
+    let ((median, pck5), _dir) = synth_run(scenario, None);
+    assert!(median <= max_median, "{scenario}: median {median} px");
+    assert!(pck5 >= min_pck5, "{scenario}: PCK@5 {pck5}");
 }
 
 #[test]
-fn fast_motion_keeps_most_joints_within_5px() {
-    // Measured: median 0.42 px, PCK@5 66.9 %.
-    let (median, pck5) = synth_accuracy(Scenario::Fast);
-    assert!(median <= 0.5, "median {median}");
-    assert!(pck5 >= 0.65, "PCK@5 {pck5}");
+fn walk_keeps_joints_within_5px_through_the_far_arm_passing_behind() {
+    // Measured: median 0.09 px, PCK@5 98.2 % (issue target: >= 95 %, <= 1.5 px).
+    assert_accuracy(Scenario::Walk, 0.3, 0.96);
 }
 
 #[test]
-fn squash_and_noisy_and_occlude_are_tracked_in_part() {
-    // Measured: squash 1.22 px / 74.4 %, noisy 3.66 px / 51.9 %, occlude 22.2 px / 39.3 %.
-    let (m, p) = synth_accuracy(Scenario::Squash);
-    assert!(m <= 1.5 && p >= 0.72, "squash median {m} PCK@5 {p}");
-    let (m, p) = synth_accuracy(Scenario::Noisy);
-    assert!(m <= 4.5 && p >= 0.50, "noisy median {m} PCK@5 {p}");
-    let (m, p) = synth_accuracy(Scenario::Occlude);
-    assert!(m <= 25.0 && p >= 0.37, "occlude median {m} PCK@5 {p}");
+fn occlude_keeps_joints_within_5px_with_crossing_legs_and_hidden_arm() {
+    // Measured: median 0.09 px, PCK@5 95.9 % (issue target: >= 95 %, <= 1.5 px).
+    assert_accuracy(Scenario::Occlude, 0.3, 0.94);
+}
+
+#[test]
+fn fast_punches_and_kicks_stay_tracked() {
+    // Measured: median 0.11 px, PCK@5 98.3 % (issue target: >= 90 %, <= 2 px).
+    assert_accuracy(Scenario::Fast, 0.3, 0.96);
+}
+
+#[test]
+fn squash_and_stretch_is_tracked() {
+    // Measured: median 0.98 px, PCK@5 88.2 % (issue target: >= 95 %; not reached yet).
+    assert_accuracy(Scenario::Squash, 1.2, 0.86);
+}
+
+#[test]
+fn noise_flicker_and_compression_are_tracked() {
+    // Measured: median 0.41 px, PCK@5 93.2 % (issue target: >= 95 %; not reached yet).
+    assert_accuracy(Scenario::Noisy, 0.6, 0.91);
+}
+
+/// 900 frames of mixed actions with three turns: slow in a debug build, so release-only.
+#[test]
+#[ignore = "long clip: run with cargo test --release -- --ignored"]
+fn long_clip_with_turns_is_tracked() {
+    let ((median, pck5), _dir) = synth_run(Scenario::Long, None);
+    // Measured: see the README's accuracy table (issue target: >= 85 %, <= 2.5 px).
+    assert!(pck5 >= 0.80, "PCK@5 {pck5}, median {median}");
+}
+
+/// `score`/`status` mean something: where the tracker is more than 10 px off, it says so (the
+/// status is not `ok`) for most such joint-frames.
+#[test]
+fn far_misses_are_flagged() {
+    let (_, dir) = synth_run(Scenario::Occlude, None);
+    let gt = read_gt(&dir.path().join("gt.csv")).unwrap();
+    let rows = read_tracks(&dir.path().join("run/tracks.csv")).unwrap();
+    let truth: HashMap<(u64, &str), (f32, f32)> = gt
+        .iter()
+        .map(|g| ((g.frame, g.joint.as_str()), (g.x, g.y)))
+        .collect();
+    let (mut far, mut flagged) = (0, 0);
+    for r in &rows {
+        let (x, y) = truth[&(r.frame, r.joint.as_str())];
+        if (r.x - x).hypot(r.y - y) > 10.0 {
+            far += 1;
+            if r.status != "ok" {
+                flagged += 1;
+            }
+        }
+    }
+    println!("far misses: {far}, flagged: {flagged}");
+    assert!(
+        far > 0,
+        "no far misses to judge; pick a harder clip for this test"
+    );
+    assert!(
+        flagged as f32 >= 0.9 * far as f32,
+        "{flagged} of {far} flagged"
+    );
 }
 
 /// The real labelled clip (two flies, 1500 frames at 1024×1024): runs end to end and its error
@@ -86,7 +143,8 @@ fn flies_clip_runs_and_reports_its_error() {
     assert_eq!(s.frames, 1500);
     let line = &eval(&dir.path().join("run"), &shared.join("gt.csv"), false).unwrap()[0];
     println!("flies: {line}");
-    let (_, pck5) = parse_line(line);
-    // Measured: median 4.48 px, PCK@5 51.1 %, PCK@10 55.9 %.
-    assert!(pck5 >= 0.49, "PCK@5 {pck5}");
+    let (median, pck5) = parse_line(line);
+    // Measured: median 0.66 px, PCK@5 70.0 %, PCK@10 72.5 %.
+    assert!(pck5 >= 0.68, "PCK@5 {pck5}");
+    assert!(median <= 1.0, "median {median}");
 }

@@ -74,7 +74,8 @@ impl Tracker {
                 .sum::<f32>()
                 / strips.len() as f32
         };
-        let typical = strips.iter().map(|s| s.typical_cost[v.img.k]).sum::<f32>() / strips.len() as f32;
+        let typical =
+            strips.iter().map(|s| s.typical_cost[v.img.k]).sum::<f32>() / strips.len() as f32;
         if colour(Vector::zeros()) < typical + p.search_skip_cost {
             return Vector::zeros();
         }

@@ -1,15 +1,16 @@
 //! Joint refinement: all joints of a frame placed at once by Gauss–Newton (damped) on
 //!
-//!     E(X) = Σ_bones K·mean_s ρ(e_s)                     colour, eq. 4.1 made robust
-//!          + Σ_joints w_j |x_j − x_parent − r̂_j|²          geometric prior, eq. 4.5–4.6
-//!          + Σ_bones w_b (|C − P| − L̂_b)²                  bones change length slowly
+//! ```text
+//! E(X) = Σ_bones K·mean_s ρ(e_s)                     colour, eq. 4.1 made robust
+//!      + Σ_joints w_j |x_j − x_parent − r̂_j|²          geometric prior, eq. 4.5–4.6
+//!      + Σ_bones w_b (|C − P| − L̂_b)²                  bones change length slowly
+//! ```
 //!
 //! so a joint is placed by every bone that touches it: an elbow by its upper arm and forearm.
 //! A bone whose samples stop fitting (hidden) loses its pull through the robust weights, and the
 //! priors hold its joints where the motion model expects them.
 
-use super::strip::View;
-use super::strip::{Shape, Strip};
+use super::strip::{Shape, Strip, View};
 use crate::geom::{Point, Vector};
 use nalgebra::{DMatrix, DVector};
 

@@ -221,7 +221,14 @@ impl Tracker {
         let c2 = super::strip::COARSE_CALLS.with(|n| n.get());
         let found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
         let c3 = super::strip::COARSE_CALLS.with(|n| n.get());
-        if std::env::var("MOCAP_COUNT").is_ok() { eprintln!("coarse calls: search {} judge {} reacquire {}", c1 - c0, c2 - c1, c3 - c2); }
+        if std::env::var("MOCAP_COUNT").is_ok() {
+            eprintln!(
+                "coarse calls: search {} judge {} reacquire {}",
+                c1 - c0,
+                c2 - c1,
+                c3 - c2
+            );
+        }
         if found.iter().any(|&f| f) {
             self.refine(&views, &pred, &mut x);
             fits = self.fits(&judge, &x);
