@@ -59,11 +59,6 @@ pub const INLIER_E: f32 = 2.5;
 /// sample costs over 0.9 of a misfit anyway).
 const PLATE_CHECK_E: f32 = 9.0;
 
-thread_local! {
-    /// Diagnostics: coarse-cost evaluations so far on this thread.
-    pub static COARSE_CALLS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
-}
-
 /// Most other strips a sample is checked against in [`Strip::learn`].
 const ALTERNATIVES: usize = 2;
 
@@ -589,7 +584,6 @@ impl Strip {
 
     /// [`Strip::coarse_cost`] laid mirrored or not as asked.
     pub fn coarse_cost_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> f32 {
-        COARSE_CALLS.with(|n| n.set(n.get() + 1));
         let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
         let (mut sum, mut n) = (0.0, 0.0);

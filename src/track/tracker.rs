@@ -201,9 +201,7 @@ impl Tracker {
         let views = Self::views(self.background.as_ref(), &plate, &pyr, frame);
         let judge = views[self.params.judge_level.min(views.len() - 1)];
         lap(&mut tm.pyramid);
-        let c0 = super::strip::COARSE_CALLS.with(|n| n.get());
         let mut x = self.search(&views, &pred);
-        let c1 = super::strip::COARSE_CALLS.with(|n| n.get());
         let searched = self.trace.is_some().then(|| x.clone());
         lap(&mut tm.search);
         self.refine(&views, &pred, &mut x);
@@ -218,17 +216,7 @@ impl Tracker {
         let none = vec![false; x.len()];
         self.place_hidden(&pred, &evidence, &none, &mut x);
         lap(&mut tm.judge);
-        let c2 = super::strip::COARSE_CALLS.with(|n| n.get());
         let found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
-        let c3 = super::strip::COARSE_CALLS.with(|n| n.get());
-        if std::env::var("MOCAP_COUNT").is_ok() {
-            eprintln!(
-                "coarse calls: search {} judge {} reacquire {}",
-                c1 - c0,
-                c2 - c1,
-                c3 - c2
-            );
-        }
         if found.iter().any(|&f| f) {
             self.refine(&views, &pred, &mut x);
             fits = self.fits(&judge, &x);

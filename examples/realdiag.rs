@@ -1,0 +1,120 @@
+//! Development diagnostics on a real clip with labels: tracks it (streaming, background as
+//! `track` builds it), prints the strips, per-100-frame PCK@5, per-joint PCK@5, stage timings, and
+//! the joints more than `--thr` px off between `--from` and `--to`.
+//!
+//!     cargo run --release --example realdiag -- CLIP SEEDS GT [--thr PX] [--from F] [--to F]
+use mocap2d::app::{background_for, TrackOptions};
+use mocap2d::decode;
+use mocap2d::track::Tracker;
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let get = |k: &str| {
+        args.iter()
+            .position(|a| a == k)
+            .map(|i| args[i + 1].clone())
+    };
+    let (clip, seeds_path, gt_path) = (
+        PathBuf::from(&args[0]),
+        PathBuf::from(&args[1]),
+        PathBuf::from(&args[2]),
+    );
+    let thr: f32 = get("--thr").map_or(1e9, |v| v.parse().unwrap());
+    let from: u64 = get("--from").map_or(0, |v| v.parse().unwrap());
+    let to: u64 = get("--to").map_or(u64::MAX, |v| v.parse().unwrap());
+    let params = mocap2d::cli::read_params(
+        std::env::var("PARAMS")
+            .ok()
+            .as_deref()
+            .map(std::path::Path::new),
+    )?;
+    let (seeds, _) = mocap2d::seed::read_seeds(&seeds_path)?;
+    let mut opts = TrackOptions::new(&clip, &seeds_path);
+    opts.params = params.clone();
+    let mut source = decode::open(&clip, None)?;
+    let (w, h) = (source.info().width, source.info().height);
+    let (bg, _) = background_for(&opts, w, h)?;
+    let gt = mocap2d::eval::read_gt(&gt_path)?;
+    let truth: HashMap<(u64, &str), (f32, f32)> = gt
+        .iter()
+        .map(|g| ((g.frame, g.joint.as_str()), (g.x, g.y)))
+        .collect();
+    let names: Vec<String> = seeds.joints.iter().map(|j| j.name.clone()).collect();
+    let mut tracker: Option<Tracker> = None;
+    let (mut spans, mut per) = (
+        HashMap::<u64, (u32, u32)>::new(),
+        vec![(0u32, 0u32); names.len()],
+    );
+    let mut idx = 0u64;
+    let mut bg = bg;
+    while let Some(frame) = source.next_frame()? {
+        let est = match tracker.as_mut() {
+            None => {
+                let t = Tracker::new(params.clone(), &seeds, &frame, bg.take());
+                for l in t.strip_summaries() {
+                    println!("{l}");
+                }
+                tracker = Some(t);
+                tracker.as_ref().unwrap().current()
+            }
+            Some(t) => t.step(&frame),
+        };
+        let mut lines = Vec::new();
+        for (j, n) in names.iter().enumerate() {
+            let Some(&(x, y)) = truth.get(&(idx, n.as_str())) else {
+                continue;
+            };
+            let e = (est[j].pos.x - x).hypot(est[j].pos.y - y);
+            let s = spans.entry(idx / 100).or_default();
+            s.1 += 1;
+            per[j].1 += 1;
+            if e <= 5.0 {
+                s.0 += 1;
+                per[j].0 += 1;
+            }
+            if e > thr && idx >= from && idx <= to {
+                lines.push(format!(
+                    "  {n:18} err={e:6.1} score={:.2} {}",
+                    est[j].score,
+                    est[j].status.as_str()
+                ));
+            }
+        }
+        if !lines.is_empty() {
+            println!("frame {idx}\n{}", lines.join("\n"));
+        }
+        idx += 1;
+    }
+    let mut keys: Vec<_> = spans.keys().copied().collect();
+    keys.sort();
+    let s: Vec<String> = keys
+        .iter()
+        .map(|k| {
+            let (g, t) = spans[k];
+            format!("{}:{:.0}", k * 100, 100.0 * g as f32 / t.max(1) as f32)
+        })
+        .collect();
+    println!("PCK@5 per 100 frames: {}", s.join(" "));
+    let p: Vec<String> = names
+        .iter()
+        .zip(&per)
+        .map(|(n, (g, t))| format!("{n}:{:.0}", 100.0 * *g as f32 / (*t).max(1) as f32))
+        .collect();
+    println!("PCK@5 per joint: {}", p.join(" "));
+    if let Some(t) = &tracker {
+        let tm = t.timings();
+        let ms = |s: f64| 1000.0 * s / tm.frames.max(1) as f64;
+        println!(
+            "ms/frame: pyramid {:.2} search {:.2} refine {:.2} judge {:.2} reacquire {:.2} learn {:.2}",
+            ms(tm.pyramid),
+            ms(tm.search),
+            ms(tm.refine),
+            ms(tm.judge),
+            ms(tm.reacquire),
+            ms(tm.learn)
+        );
+    }
+    Ok(())
+}
