@@ -86,8 +86,9 @@ fn noise_flicker_and_compression_are_tracked() {
 #[ignore = "long clip: run with cargo test --release -- --ignored"]
 fn long_clip_with_turns_is_tracked() {
     let ((median, pck5), _dir) = synth_run(Scenario::Long, None);
-    // Measured: see the README's accuracy table (issue target: >= 85 %, <= 2.5 px).
-    assert!(pck5 >= 0.80, "PCK@5 {pck5}, median {median}");
+    // Measured: median 0.17 px, PCK@5 80.5 % (issue target: >= 85 %, <= 2.5 px; not reached).
+    assert!(pck5 >= 0.78, "PCK@5 {pck5}, median {median}");
+    assert!(median <= 0.5, "median {median}");
 }
 
 /// `score`/`status` mean something: where the tracker is more than 10 px off, it says so (the
@@ -147,4 +148,76 @@ fn flies_clip_runs_and_reports_its_error() {
     // Measured: median 0.66 px, PCK@5 70.0 %, PCK@10 72.5 %.
     assert!(pck5 >= 0.68, "PCK@5 {pck5}");
     assert!(median <= 1.0, "median {median}");
+}
+
+/// PCK@5 (0–1) over frames `from..` of the walk clip (640×360, seed 1) where the character
+/// vanishes on frame 40 and reappears 160 px further across on frame 50 (its pixels moved onto
+/// the clean background), tracked in memory with `params`.
+fn walk_with_jump_pck5(params: mocap2d::track::TrackParams, from: usize) -> f32 {
+    use mocap2d::background::Background;
+    use mocap2d::track::Tracker;
+    let clip = render(&SynthOptions {
+        scenario: Scenario::Walk,
+        width: 640,
+        height: 360,
+        seed: 1,
+        frames: None,
+    });
+    let bgi = &clip.background;
+    let dx: i64 = if clip.gt[50][0].0 < 320.0 { 160 } else { -160 };
+    let mut frames = clip.frames.clone();
+    let mut gt = clip.gt.clone();
+    for f in 40..frames.len() {
+        let mut moved = bgi.clone();
+        if f >= 50 {
+            for (x, y, px) in clip.frames[f].enumerate_pixels() {
+                let b = bgi.get_pixel(x, y);
+                let diff: i32 = (0..3).map(|c| (px[c] as i32 - b[c] as i32).abs()).sum();
+                let tx = x as i64 + dx;
+                if diff > 30 && (0..moved.width() as i64).contains(&tx) {
+                    moved.put_pixel(tx as u32, y, *px);
+                }
+            }
+            for g in &mut gt[f] {
+                g.0 += dx as f32;
+            }
+        }
+        frames[f] = moved;
+    }
+    let seeds = mocap2d::seed::parse_seeds(&clip.seeds_toml(), Path::new("seeds")).unwrap();
+    let mut t = Tracker::new(
+        params,
+        &seeds,
+        &frames[0],
+        Some(Background::fit(&[bgi.clone()]).unwrap()),
+    );
+    let (mut hit, mut n) = (0, 0);
+    for (f, frame) in frames.iter().enumerate().skip(1) {
+        let est = t.step(frame);
+        if f >= from {
+            for (e, g) in est.iter().zip(&gt[f]) {
+                n += 1;
+                hit += usize::from((e.pos.x - g.0).hypot(e.pos.y - g.1) <= 5.0);
+            }
+        }
+    }
+    hit as f32 / n as f32
+}
+
+/// A body lost from sight that reappears far from where it was lost is looked for over the
+/// whole frame and found again; without the whole-frame search it is not.
+#[test]
+fn a_body_lost_for_a_while_is_found_again() {
+    let with = walk_with_jump_pck5(Default::default(), 75);
+    let without = walk_with_jump_pck5(
+        mocap2d::track::TrackParams {
+            redetect_after: 0,
+            ..Default::default()
+        },
+        75,
+    );
+    println!("PCK@5 after the jump: {with} with re-detection, {without} without");
+    // Measured: 85.1 % with, 0 % without (frames 75–119).
+    assert!(with >= 0.8, "with re-detection: PCK@5 {with}");
+    assert!(without < 0.5, "without re-detection: PCK@5 {without}");
 }

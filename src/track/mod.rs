@@ -29,6 +29,7 @@ mod model;
 mod motion;
 mod params;
 pub mod pixels;
+mod redetect;
 pub mod search;
 pub mod solve;
 pub mod strip;

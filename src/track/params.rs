@@ -113,6 +113,13 @@ pub struct TrackParams {
     pub fill_gaps_max: u32,
     /// Frames in a row hidden before the status turns from `occluded` to `lost`.
     pub lost_after_frames: u32,
+    /// Frames in a row a root is hidden before its whole body is looked for over the whole
+    /// frame (0: never), and then every this many frames while it stays hidden.
+    pub redetect_after: u32,
+    pub redetect_every: u32,
+    /// A body found again over the whole frame is taken when its root's evidence (share of
+    /// fitting samples near it) is at least this.
+    pub redetect_share: f32,
 }
 
 impl Default for TrackParams {
@@ -163,6 +170,9 @@ impl Default for TrackParams {
             rotate_roots: false,
             fill_gaps_max: 120,
             lost_after_frames: 30,
+            redetect_after: 8,
+            redetect_every: 4,
+            redetect_share: 0.4,
         }
     }
 }

@@ -36,7 +36,9 @@ pub struct Tracker {
     /// The clean plate's pyramid levels (level 0 is the plate), when there is one.
     plate: Vec<RgbImage>,
     /// Bottom-right pixel of the frame (px): roots are kept inside.
-    frame_max: Point,
+    pub(super) frame_max: Point,
+    /// Every joint's position on the seed frame (px).
+    pub(super) seed_pos: Vec<Point>,
     /// The last frame's intermediate results, when asked for (see [`Tracker::trace`]).
     trace: Option<Trace>,
     /// Time spent in each part of [`Tracker::step`] so far.
@@ -124,6 +126,7 @@ impl Tracker {
                 seed_frame.width().saturating_sub(1) as f32,
                 seed_frame.height().saturating_sub(1) as f32,
             ),
+            seed_pos: centres,
             trace: None,
             timings: Timings::default(),
         }
@@ -216,7 +219,13 @@ impl Tracker {
         let none = vec![false; x.len()];
         self.place_hidden(&pred, &evidence, &none, &mut x);
         lap(&mut tm.judge);
-        let found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
+        let mut found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
+        for (f, r) in found
+            .iter_mut()
+            .zip(self.redetect(&views, &judge, &evidence, &mut x))
+        {
+            *f |= r;
+        }
         if found.iter().any(|&f| f) {
             self.refine(&views, &pred, &mut x);
             fits = self.fits(&judge, &x);

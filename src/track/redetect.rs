@@ -1,0 +1,163 @@
+//! Whole-body re-detection: a body whose root has gone unseen for a while (the character turned,
+//! crossed the frame while hidden, or the tracker slid off it) is looked for over the whole frame,
+//! so a lost track comes back instead of staying where it was lost (METHOD.md §2, occlusion:
+//! "widen the search as uncertainty grows", here to the whole frame).
+//!
+//! The body is searched rigidly, in the pose it had when it was lost and in its seed pose, each
+//! as it is and mirrored left to right (a character that turned round), at the coarsest pyramid
+//! level; each placement is then tracked into place like a frame (bone search and refinement
+//! with wide windows), and the best is taken only if, judged on the judging level, the root's
+//! strips fit at least `redetect_share`. The motion models of the body are then restarted at rest there.
+
+use super::motion::{Motion, Prediction};
+use super::search::{grid_min, Window};
+use super::strip::View;
+use super::Tracker;
+use crate::geom::{Point, Vector};
+
+impl Tracker {
+    /// Looks for every root that has been unseen for [`super::TrackParams::redetect_after`]
+    /// frames (then every `redetect_every` frames while it stays unseen), with the joints at `x`
+    /// and this frame's `evidence`. Moves what is found (the root and everything below it) and
+    /// returns which joints moved.
+    pub(super) fn redetect(
+        &mut self,
+        views: &[View],
+        judge: &View,
+        evidence: &[f32],
+        x: &mut [Point],
+    ) -> Vec<bool> {
+        let p = self.params.clone();
+        let mut found = vec![false; x.len()];
+        if p.redetect_after == 0 {
+            return found;
+        }
+        let coarse = &views[views.len() - 1];
+        for r in 0..x.len() {
+            if self.parents[r].is_some() || evidence[r] >= p.seen_share {
+                continue;
+            }
+            let run = self.joints[r].hidden_run + 1;
+            if run < p.redetect_after || (run - p.redetect_after) % p.redetect_every.max(1) != 0 {
+                continue;
+            }
+            let body = self.descendants_and_self(r);
+            // Each rigid candidate is then tracked into place as a frame would be, and the
+            // one whose root fits best is taken, if it fits as on a frame where it is seen.
+            let mut best: Option<(f32, Vec<Point>, bool)> = None;
+            for (placed, flip) in self.redetect_candidates(coarse, r, x) {
+                self.flip_strips(&body, flip);
+                let mut trial = x.to_vec();
+                for (&k, &q) in body.iter().zip(&placed) {
+                    trial[k] = q;
+                }
+                let pred = self.wide_prediction(&trial, coarse.img.scale);
+                let mut y = self.search(views, &pred);
+                self.refine(views, &pred, &mut y);
+                let e = self.evidence(&self.fits(judge, &y))[r];
+                self.flip_strips(&body, flip);
+                if e >= p.redetect_share && best.as_ref().is_none_or(|b| e > b.0) {
+                    best = Some((e, body.iter().map(|&k| y[k]).collect(), flip));
+                }
+            }
+            if let Some((_, placed, flip)) = best {
+                for (&k, &q) in body.iter().zip(&placed) {
+                    x[k] = q;
+                    found[k] = true;
+                }
+                self.flip_strips(&body, flip);
+                self.restart_motion(&body, x);
+            }
+        }
+        found
+    }
+
+    /// The best rigid placement over the whole frame of root `r`'s body (joints in
+    /// [`Tracker::descendants_and_self`] order) in each of its poses (as at `x`, as on the seed
+    /// frame) laid as it is and mirrored, on the coarse view `v`.
+    fn redetect_candidates(&self, v: &View, r: usize, x: &[Point]) -> Vec<(Vec<Point>, bool)> {
+        let body = self.descendants_and_self(r);
+        let strips: Vec<usize> = body
+            .iter()
+            .filter_map(|&k| self.model.strip_of[k])
+            .collect();
+        if strips.is_empty() {
+            return Vec::new();
+        }
+        let slot = |j: usize| body.iter().position(|&k| k == j).unwrap_or(0);
+        let step = 2.0 * v.img.scale;
+        let w = Window {
+            centre: [0.5 * self.frame_max.x, 0.5 * self.frame_max.y],
+            half: [0.5 * self.frame_max.x, 0.5 * self.frame_max.y],
+            step: [step, step],
+        };
+        let mut out = Vec::new();
+        for pose in [x, &self.seed_pos[..]] {
+            for flip in [false, true] {
+                // The body relative to its root, mirrored left to right when `flip`.
+                let rel: Vec<Vector> = body
+                    .iter()
+                    .map(|&k| {
+                        let d = pose[k] - pose[r];
+                        Vector::new(if flip { -d.x } else { d.x }, d.y)
+                    })
+                    .collect();
+                let cost = |q: [f32; 2]| {
+                    let at = |j: usize| Point::new(q[0], q[1]) + rel[slot(j)];
+                    strips
+                        .iter()
+                        .map(|&si| {
+                            let s = &self.model.strips[si];
+                            s.coarse_cost_as(v, at(s.parent), at(s.child), s.mirrored ^ flip)
+                        })
+                        .sum::<f32>()
+                        / strips.len() as f32
+                };
+                let (q, _) = grid_min(&w, cost);
+                let at = Point::new(q[0], q[1]);
+                out.push((rel.iter().map(|&d| at + d).collect(), flip));
+            }
+        }
+        out
+    }
+
+    /// Predictions centred on `x` with windows wide enough to pull a rigidly placed body onto
+    /// its limbs: a root within two coarse steps (`scale` px each), bones within the widest
+    /// angle window.
+    fn wide_prediction(&self, x: &[Point], scale: f32) -> Vec<Prediction> {
+        let p = &self.params;
+        (0..x.len())
+            .map(|k| Prediction {
+                pos: x[k],
+                sigma: match self.parents[k] {
+                    None => 2.0 * scale / p.search_sigmas.max(1e-3),
+                    Some(_) => p.angle_max_deg.to_radians() / p.search_sigmas.max(1e-3),
+                },
+                len_sigma: p.stretch_max / p.search_sigmas.max(1e-3),
+            })
+            .collect()
+    }
+
+    /// Turns the strips of `body` over when `flip`.
+    fn flip_strips(&mut self, body: &[usize], flip: bool) {
+        if !flip {
+            return;
+        }
+        for &k in body {
+            if let Some(si) = self.model.strip_of[k] {
+                let s = &mut self.model.strips[si];
+                s.mirrored = !s.mirrored;
+            }
+        }
+    }
+
+    /// Restarts the motion models of `body` (a root first) at rest at `x`.
+    fn restart_motion(&mut self, body: &[usize], x: &[Point]) {
+        for &k in body {
+            self.joints[k].motion = match self.parents[k] {
+                None => Motion::root(x[k], &self.params),
+                Some(par) => Motion::bone(x[par], x[k], &self.params),
+            };
+        }
+    }
+}
