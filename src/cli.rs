@@ -30,6 +30,23 @@ pub enum Command {
     Retarget(RetargetArgs),
     /// Deform and draw the target character along RUN/retarget/pose.csv: a video and/or PNGs.
     Render(RenderArgs),
+    /// Export a run for animation tools: Spine, DragonBones, BVH, DeepLabCut CSV or JSON.
+    Export(ExportArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ExportArgs {
+    /// Run folder written by `mocap2d track` (and, for spine/dragonbones/bvh, `mocap2d retarget`).
+    pub run: PathBuf,
+    /// Output format.
+    #[arg(long, value_enum)]
+    pub format: crate::export::Format,
+    /// Target character file given to `mocap2d retarget` (spine only: its image is the skin).
+    #[arg(long)]
+    pub target: Option<PathBuf>,
+    /// File to write (spine also writes the .atlas beside it).
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, clap::Args)]

@@ -130,6 +130,25 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 to.join(" and ")
             );
         }
+        Command::Export(a) => {
+            let s = app::export(&app::ExportOptions {
+                run: a.run,
+                format: a.format,
+                target: a.target,
+                out: a.out,
+            })?;
+            let files: Vec<String> = s.files.iter().map(|p| p.display().to_string()).collect();
+            eprintln!(
+                "exported {} joints over {} frames as {} -> {}",
+                s.joints,
+                s.frames,
+                a.format.name(),
+                files.join(" and ")
+            );
+            if !s.note.is_empty() {
+                eprintln!("note: {}", s.note);
+            }
+        }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
                 println!("{line}");

@@ -102,7 +102,7 @@ pub fn to_json(
         "tracks": { "joints": joints(&tracks.skeleton), "frames": track_frames },
         "pose": pose,
     });
-    let mut s = serde_json::to_string_pretty(&doc).expect("JSON values");
+    let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
     s
 }

@@ -14,8 +14,9 @@
 
 pub mod bvh;
 pub mod dlc;
-// pub mod dragonbones;
+pub mod dragonbones;
 pub mod json;
+pub mod skin;
 pub mod spine;
 
 use crate::error::{Error, Result};

@@ -260,7 +260,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
         }],
         "animations": { ANIMATION: { "bones": timelines } },
     });
-    let mut s = serde_json::to_string_pretty(&doc).expect("JSON values");
+    let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
     s
 }
