@@ -53,16 +53,21 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
     };
     match cli.command {
         Command::Track(a) => {
+            let (seeds, dlc) = a.seed_source();
             let opts = app::TrackOptions {
                 params: mocap2d::cli::read_params(a.params.as_deref())?,
                 clip: a.clip,
-                seeds: a.seeds,
+                seeds,
+                dlc,
                 out: a.out,
                 fps: a.fps,
                 background: a.background,
                 no_background: a.no_background,
             };
             let s = app::track(&opts, &bars)?;
+            if !s.note.is_empty() {
+                eprintln!("note: {}", s.note);
+            }
             let counts: Vec<String> = s
                 .status_counts
                 .iter()

@@ -20,6 +20,8 @@
 //! [`Seeds::check_against_clip`] then checks it against the clip (rectangles inside the frame,
 //! seed frame within the clip). [`to_toml`] writes the same format back.
 
+pub mod dlc;
+
 use std::fmt::Write as _;
 use std::path::Path;
 
