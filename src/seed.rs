@@ -21,6 +21,7 @@
 //! seed frame within the clip). [`to_toml`] writes the same format back.
 
 pub mod dlc;
+pub mod dlc_csv;
 
 use std::fmt::Write as _;
 use std::path::Path;

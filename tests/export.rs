@@ -277,6 +277,7 @@ fn spine_runtime_poses_every_joint_where_pose_csv_has_it() {
         let p = export::spine::from_spine_point(q, origin);
         worst_vertex = worst_vertex.max((p[0] - want[0]).hypot(p[1] - want[1]));
     }
+    eprintln!("spine runtime: mesh vertices in the setup pose off by at most {worst_vertex:.4} px");
     assert!(worst_vertex < 0.05, "mesh vertex off by {worst_vertex} px");
     let atlas_text = std::fs::read_to_string(&atlas).unwrap();
     assert!(
