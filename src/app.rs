@@ -18,7 +18,10 @@ pub const BACKGROUND_SAMPLES: usize = 25;
 #[derive(Debug, Clone)]
 pub struct TrackOptions {
     pub clip: PathBuf,
+    /// The seed file; with `dlc`, a DeepLabCut CSV.
     pub seeds: PathBuf,
+    /// Read `seeds` as a DeepLabCut CSV: which frame, rectangle size, parent links.
+    pub dlc: Option<crate::seed::dlc::DlcSeedOptions>,
     /// Run folder; default `<clip stem>.mocap` beside the clip.
     pub out: Option<PathBuf>,
     /// Frame rate for image folders (and override for videos).
@@ -37,6 +40,7 @@ impl TrackOptions {
         TrackOptions {
             clip: clip.into(),
             seeds: seeds.into(),
+            dlc: None,
             out: None,
             fps: None,
             background: None,
@@ -55,6 +59,8 @@ pub struct TrackSummary {
     pub joints: usize,
     /// Joint-frames per status word.
     pub status_counts: Vec<(String, u64)>,
+    /// Something the user should know about the inputs (e.g. guessed parent links), or empty.
+    pub note: String,
 }
 
 /// The default run folder for a clip: `<stem>.mocap` beside it.
@@ -139,10 +145,36 @@ pub fn track_frames(
 /// `mocap2d track`: decode → background → track, writing the run folder.
 pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummary> {
     // Validate everything before anything is written.
-    let (seeds, seed_text) = read_seeds(&opts.seeds)?;
+    let (seeds, seed_text, note) = match &opts.dlc {
+        None => {
+            let (s, t) = read_seeds(&opts.seeds)?;
+            (s, t, String::new())
+        }
+        Some(d) => crate::seed::dlc::seeds_from_dlc(&opts.seeds, d)?,
+    };
     let source: Box<dyn FrameSource> = decode::open(&opts.clip, opts.fps)?;
     let info = source.info().clone();
-    seeds.check_against_clip(&opts.seeds, info.width, info.height, info.frame_count_hint)?;
+    seeds
+        .check_against_clip(&opts.seeds, info.width, info.height, info.frame_count_hint)
+        .map_err(|e| match (e, &opts.dlc) {
+            (
+                Error::Seed {
+                    path,
+                    line,
+                    joint,
+                    msg,
+                },
+                Some(_),
+            ) => Error::Seed {
+                path,
+                line,
+                joint,
+                msg: format!(
+                    "{msg} (with --seeds-from-dlc: a smaller --seed-size or another --seed-frame)"
+                ),
+            },
+            (e, _) => e,
+        })?;
     let run_dir = opts
         .out
         .clone()
@@ -235,6 +267,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
             .into_iter()
             .map(|(k, v)| (k.to_string(), v))
             .collect(),
+        note,
     })
 }
 
@@ -268,7 +301,9 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
 }
 
 mod animate;
+mod export;
 pub use animate::{
     render, retarget, run_frame, RenderOptions, RenderSummary, Renderer, RetargetSummary,
     RETARGET_DIR,
 };
+pub use export::{export, ExportOptions, ExportSummary};

@@ -30,6 +30,23 @@ pub enum Command {
     Retarget(RetargetArgs),
     /// Deform and draw the target character along RUN/retarget/pose.csv: a video and/or PNGs.
     Render(RenderArgs),
+    /// Export a run for animation tools: Spine, DragonBones, BVH, DeepLabCut CSV or JSON.
+    Export(ExportArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ExportArgs {
+    /// Run folder written by `mocap2d track` (and, for spine/dragonbones/bvh, `mocap2d retarget`).
+    pub run: PathBuf,
+    /// Output format.
+    #[arg(long, value_enum)]
+    pub format: crate::export::Format,
+    /// Target character file given to `mocap2d retarget` (spine only: its image is the skin).
+    #[arg(long)]
+    pub target: Option<PathBuf>,
+    /// File to write (spine also writes the .atlas beside it).
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, clap::Args)]
@@ -104,8 +121,26 @@ pub struct TrackArgs {
     /// The clip: a video FFmpeg decodes, or a folder of numbered PNG/JPEG frames.
     pub clip: PathBuf,
     /// Seed file: one rectangle per joint on the seed frame (see README, "Seed file").
-    #[arg(long)]
-    pub seeds: PathBuf,
+    #[arg(
+        long,
+        required_unless_present = "seeds_from_dlc",
+        conflicts_with = "seeds_from_dlc"
+    )]
+    pub seeds: Option<PathBuf>,
+    /// Seeds from a DeepLabCut CSV (labels or predictions) instead: the labels of --seed-frame.
+    #[arg(long, value_name = "CSV", requires = "seed_frame")]
+    pub seeds_from_dlc: Option<PathBuf>,
+    /// The frame of the DeepLabCut CSV whose labels become the seeds (and the run's seed frame).
+    #[arg(long, value_name = "N", requires = "seeds_from_dlc")]
+    pub seed_frame: Option<u64>,
+    /// Side of the seed rectangles made from DeepLabCut labels, px.
+    #[arg(long, value_name = "PX", requires = "seeds_from_dlc",
+          default_value_t = crate::seed::dlc::DEFAULT_SEED_SIZE)]
+    pub seed_size: u32,
+    /// Parent links for the DeepLabCut bodyparts: TOML [[joint]] tables with name and parent
+    /// (a seed file works) [default: a chain in column order].
+    #[arg(long, value_name = "TOML", requires = "seeds_from_dlc")]
+    pub skeleton: Option<PathBuf>,
     /// Run folder to write [default: <clip stem>.mocap beside the clip].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -151,6 +186,24 @@ pub struct SynthArgs {
     /// Number of frames [default: the scenario's].
     #[arg(long)]
     pub frames: Option<u32>,
+}
+
+impl TrackArgs {
+    /// The seed file (or DeepLabCut CSV) and, for a CSV, how to read it.
+    pub fn seed_source(&self) -> (PathBuf, Option<crate::seed::dlc::DlcSeedOptions>) {
+        match (&self.seeds, &self.seeds_from_dlc) {
+            (_, Some(csv)) => (
+                csv.clone(),
+                Some(crate::seed::dlc::DlcSeedOptions {
+                    frame: self.seed_frame.unwrap_or(0),
+                    size: self.seed_size,
+                    skeleton: self.skeleton.clone(),
+                }),
+            ),
+            (Some(s), None) => (s.clone(), None),
+            (None, None) => unreachable!("clap requires --seeds or --seeds-from-dlc"),
+        }
+    }
 }
 
 /// Parses `WIDTHxHEIGHT` (px).
@@ -200,6 +253,7 @@ mod tests {
         match cli.command {
             Command::Track(a) => {
                 assert_eq!(a.clip, PathBuf::from("a.mp4"));
+                assert_eq!(a.seed_source(), (PathBuf::from("j.toml"), None));
                 assert_eq!(a.fps, Some(24.0));
             }
             _ => panic!("not track"),

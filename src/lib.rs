@@ -18,6 +18,7 @@ pub mod deform;
 pub mod encode;
 pub mod error;
 pub mod eval;
+pub mod export;
 pub mod geom;
 pub mod progress;
 pub mod render;

@@ -53,16 +53,21 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
     };
     match cli.command {
         Command::Track(a) => {
+            let (seeds, dlc) = a.seed_source();
             let opts = app::TrackOptions {
                 params: mocap2d::cli::read_params(a.params.as_deref())?,
                 clip: a.clip,
-                seeds: a.seeds,
+                seeds,
+                dlc,
                 out: a.out,
                 fps: a.fps,
                 background: a.background,
                 no_background: a.no_background,
             };
             let s = app::track(&opts, &bars)?;
+            if !s.note.is_empty() {
+                eprintln!("note: {}", s.note);
+            }
             let counts: Vec<String> = s
                 .status_counts
                 .iter()
@@ -129,6 +134,25 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 s.joint_vertices,
                 to.join(" and ")
             );
+        }
+        Command::Export(a) => {
+            let s = app::export(&app::ExportOptions {
+                run: a.run,
+                format: a.format,
+                target: a.target,
+                out: a.out,
+            })?;
+            let files: Vec<String> = s.files.iter().map(|p| p.display().to_string()).collect();
+            eprintln!(
+                "exported {} joints over {} frames as {} -> {}",
+                s.joints,
+                s.frames,
+                a.format.name(),
+                files.join(" and ")
+            );
+            if !s.note.is_empty() {
+                eprintln!("note: {}", s.note);
+            }
         }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {

@@ -20,6 +20,9 @@
 //! [`Seeds::check_against_clip`] then checks it against the clip (rectangles inside the frame,
 //! seed frame within the clip). [`to_toml`] writes the same format back.
 
+pub mod dlc;
+pub mod dlc_csv;
+
 use std::fmt::Write as _;
 use std::path::Path;
 

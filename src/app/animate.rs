@@ -364,7 +364,7 @@ pub fn run_frame(run: &Path) -> Result<(u32, u32, f64)> {
     }
 }
 
-fn hash_file(path: &Path) -> Result<String> {
+pub(crate) fn hash_file(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| Error::RunFolder {
         path: path.to_owned(),
         msg: format!("cannot read: {e}"),

@@ -141,6 +141,84 @@ pub fn read_pose(path: &Path, names: &[String]) -> Result<(Vec<u64>, Vec<Vec<P64
     Ok((frames, joints))
 }
 
+/// The target skeleton of a retarget folder: joint names in `pose.csv` order (its first frame)
+/// and parent links from the `parent->child` bone names of `bones.csv` (its first frame), so that
+/// exporters need not re-read the target character file. Errors name the file and the fix.
+pub fn read_skeleton(pose_path: &Path, bones_path: &Path) -> Result<crate::skeleton::Skeleton> {
+    let err = |path: &Path, msg: String| Error::RunFolder {
+        path: path.to_owned(),
+        msg,
+    };
+    let again = "run `mocap2d retarget RUN --target ...` (again)";
+    let mut names: Vec<String> = Vec::new();
+    let mut rdr = csv::Reader::from_path(pose_path).map_err(|e| {
+        err(
+            pose_path,
+            format!("cannot read the retargeted pose ({e}); {again}"),
+        )
+    })?;
+    let mut first = None;
+    for (i, row) in rdr.deserialize::<PoseRow>().enumerate() {
+        let row = row.map_err(|e| err(pose_path, format!("line {}: {e}; {again}", i + 2)))?;
+        if *first.get_or_insert(row.frame) != row.frame {
+            break;
+        }
+        if names.contains(&row.joint) {
+            return Err(err(
+                pose_path,
+                format!(
+                    "line {}: joint {:?} listed twice; {again}",
+                    i + 2,
+                    row.joint
+                ),
+            ));
+        }
+        names.push(row.joint);
+    }
+    if names.is_empty() {
+        return Err(err(pose_path, format!("no poses; {again}")));
+    }
+    let mut parents = vec![None; names.len()];
+    let mut rdr = csv::Reader::from_path(bones_path)
+        .map_err(|e| err(bones_path, format!("cannot read the bones ({e}); {again}")))?;
+    let mut first = None;
+    for (i, row) in rdr.records().enumerate() {
+        let row = row.map_err(|e| err(bones_path, format!("line {}: {e}; {again}", i + 2)))?;
+        let bad = || {
+            err(
+                bones_path,
+                format!(
+                    "line {}: not `frame,parent->child,length,angle`; {again}",
+                    i + 2
+                ),
+            )
+        };
+        let frame: u64 = row.get(0).and_then(|f| f.parse().ok()).ok_or_else(bad)?;
+        if *first.get_or_insert(frame) != frame {
+            break;
+        }
+        let (p, c) = row
+            .get(1)
+            .and_then(|b| b.split_once("->"))
+            .ok_or_else(bad)?;
+        let index = |n: &str| {
+            names.iter().position(|x| x == n).ok_or_else(|| {
+                err(
+                    bones_path,
+                    format!("line {}: joint {n:?} is not in pose.csv; {again}", i + 2),
+                )
+            })
+        };
+        let (p, c) = (index(p)?, index(c)?);
+        parents[c] = Some(p);
+    }
+    let skeleton = crate::skeleton::Skeleton::new(names, parents);
+    if skeleton.find_cycle().is_some() {
+        return Err(err(bones_path, format!("bones form a cycle; {again}")));
+    }
+    Ok(skeleton)
+}
+
 /// Reads `retarget.toml`.
 pub fn read_manifest(path: &Path) -> Result<RetargetManifest> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::RunFolder {

@@ -1,0 +1,202 @@
+//! `mocap2d export RUN --format F --out FILE`: a run folder in the formats animators load
+//! ([`crate::export`]). Every input is checked before anything is written; files are written
+//! atomically.
+
+use super::{animate::hash_file, run_frame, RETARGET_DIR};
+use crate::character::read_character;
+use crate::error::{Error, Result};
+use crate::export::{bvh, dlc, dragonbones, json, skin, spine, Animation, Format, Tracks};
+use crate::retarget::files::{self, RetargetManifest};
+use std::path::{Path, PathBuf};
+
+/// Options of `mocap2d export`.
+#[derive(Debug, Clone)]
+pub struct ExportOptions {
+    pub run: PathBuf,
+    pub format: Format,
+    /// The target character file (Spine: required, its image is the skin).
+    pub target: Option<PathBuf>,
+    pub out: PathBuf,
+}
+
+/// What `export` wrote.
+#[derive(Debug, Clone)]
+pub struct ExportSummary {
+    /// Files written, the main one first.
+    pub files: Vec<PathBuf>,
+    pub frames: usize,
+    pub joints: usize,
+    /// Something the user should know (e.g. the JSON has no retargeted pose), or empty.
+    pub note: String,
+}
+
+/// `mocap2d export`.
+pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
+    let format = opts.format;
+    match (&opts.target, format.needs_target()) {
+        (None, true) => {
+            return Err(Error::Usage(format!(
+                "--format {} needs --target CHARACTER.toml: the character file given to \
+                 `mocap2d retarget` (its image becomes the skin)",
+                format.name()
+            )))
+        }
+        (Some(t), false) => {
+            return Err(Error::Usage(format!(
+                "--target {}: --format {} does not use a character file; leave --target out \
+                 (only --format spine takes one)",
+                t.display(),
+                format.name()
+            )))
+        }
+        _ => {}
+    }
+    let out_dir = check_out(&opts.out)?;
+    let (width, height, fps) = run_frame(&opts.run)?;
+    let retarget_dir = opts.run.join(RETARGET_DIR);
+    let has_retarget = retarget_dir.join("retarget.toml").is_file();
+    if format.needs_retarget() && !has_retarget {
+        return Err(Error::RunFolder {
+            path: opts.run.clone(),
+            msg: format!(
+                "has no retargeted pose ({}/retarget.toml); --format {} exports the target \
+                 character's motion: run `mocap2d retarget {} --target CHARACTER.toml` first \
+                 (dlc-csv and json export the tracks alone)",
+                RETARGET_DIR,
+                format.name(),
+                opts.run.display()
+            ),
+        });
+    }
+    let pose = if has_retarget && format != Format::DlcCsv {
+        Some(read_animation(&opts.run, width, height)?)
+    } else {
+        None
+    };
+
+    let mut note = String::new();
+    let mut files_out: Vec<(PathBuf, String)> = Vec::new();
+    let (frames, joints) = match format {
+        Format::Spine => {
+            let (anim, manifest) = pose.as_ref().expect("checked above");
+            let target = opts.target.as_ref().expect("checked above");
+            let character = read_character(target)?;
+            if character.blake3 != manifest.target_blake3 {
+                return Err(Error::RunFolder {
+                    path: retarget_dir.clone(),
+                    msg: format!(
+                        "was retargeted onto {} (or that file has changed since), not {}; run \
+                         `mocap2d retarget {} --target {}` first",
+                        manifest.target,
+                        target.display(),
+                        opts.run.display(),
+                        target.display()
+                    ),
+                });
+            }
+            let mesh =
+                skin::skin_mesh(&character, manifest.placement(), &anim.joints[0], &out_dir)?;
+            let atlas_path = opts.out.with_extension("atlas");
+            files_out.push((opts.out.clone(), spine::to_spine(anim, &mesh)));
+            files_out.push((atlas_path, spine::atlas(&mesh)));
+            (anim.frames.len(), anim.skeleton.len())
+        }
+        Format::DragonBones => {
+            let (anim, _) = pose.as_ref().expect("checked above");
+            files_out.push((opts.out.clone(), dragonbones::to_dragonbones(anim)));
+            (anim.frames.len(), anim.skeleton.len())
+        }
+        Format::Bvh => {
+            let (anim, _) = pose.as_ref().expect("checked above");
+            files_out.push((opts.out.clone(), bvh::to_bvh(anim)));
+            (anim.frames.len(), anim.skeleton.len())
+        }
+        Format::DlcCsv => {
+            let tracks = read_tracks(&opts.run)?;
+            files_out.push((opts.out.clone(), dlc::to_dlc_csv(&tracks)));
+            (tracks.frames.len(), tracks.skeleton.len())
+        }
+        Format::Json => {
+            let tracks = read_tracks(&opts.run)?;
+            let pose_ref = pose.as_ref().map(|(a, m)| (a, m.target.as_str()));
+            if pose_ref.is_none() {
+                note = "no retargeted pose in the run folder: \"pose\" is null (run `mocap2d \
+                        retarget` first to include it)"
+                    .into();
+            }
+            files_out.push((
+                opts.out.clone(),
+                json::to_json(width, height, fps, &tracks, pose_ref),
+            ));
+            (tracks.frames.len(), tracks.skeleton.len())
+        }
+    };
+    for (path, text) in &files_out {
+        crate::atomic::write(path, text.as_bytes())?;
+    }
+    Ok(ExportSummary {
+        files: files_out.into_iter().map(|(p, _)| p).collect(),
+        frames,
+        joints,
+        note,
+    })
+}
+
+/// The folder `--out` goes into; errors when it is missing or `out` is a folder.
+fn check_out(out: &Path) -> Result<PathBuf> {
+    if out.is_dir() {
+        return Err(Error::Usage(format!(
+            "--out {}: is a folder; give the file to write",
+            out.display()
+        )));
+    }
+    let dir = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if !dir.is_dir() {
+        return Err(Error::Usage(format!(
+            "--out {}: folder {} does not exist; create it first",
+            out.display(),
+            dir.display()
+        )));
+    }
+    Ok(dir.to_owned())
+}
+
+/// The run's tracks, grouped by frame (skeleton from `seeds.toml`).
+fn read_tracks(run: &Path) -> Result<Tracks> {
+    let (seeds, _) = crate::seed::read_seeds(&run.join("seeds.toml"))?;
+    let path = run.join("tracks.csv");
+    let rows = crate::run::tracks::read_tracks(&path)?;
+    Tracks::from_rows(rows, seeds.skeleton, &path)
+}
+
+/// The retargeted animation of `run` and its manifest; errors when the tracks changed since.
+fn read_animation(run: &Path, width: u32, height: u32) -> Result<(Animation, RetargetManifest)> {
+    let dir = run.join(RETARGET_DIR);
+    let manifest = files::read_manifest(&dir.join("retarget.toml"))?;
+    if manifest.tracks_blake3 != hash_file(&run.join("tracks.csv"))? {
+        return Err(Error::RunFolder {
+            path: dir,
+            msg: "tracks.csv changed after the retarget; run `mocap2d retarget` again".into(),
+        });
+    }
+    let skeleton = files::read_skeleton(&dir.join("pose.csv"), &dir.join("bones.csv"))?;
+    let (frames, joints) = files::read_pose(&dir.join("pose.csv"), &skeleton.names)?;
+    if frames.windows(2).any(|w| w[1] != w[0] + 1) {
+        return Err(Error::RunFolder {
+            path: dir.join("pose.csv"),
+            msg: "frames are not consecutive; run `mocap2d retarget` again".into(),
+        });
+    }
+    let anim = Animation {
+        skeleton,
+        frames,
+        joints,
+        fps: manifest.fps,
+        width,
+        height,
+    };
+    Ok((anim, manifest))
+}

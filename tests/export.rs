@@ -1,0 +1,712 @@
+//! `mocap2d export`, end to end on run folders built from synthetic ground truth: the Spine
+//! export loaded by the official Spine runtime (spine-core's SkeletonJson) and the DragonBones
+//! export by the DragonBones runtime's core, both posed at every frame and compared with
+//! `retarget/pose.csv`; BVH and DeepLabCut CSV round trips; the errors of bad combinations.
+//!
+//! The runtime checks run Node.js scripts in tests/js/ against the npm packages that
+//! `scripts/setup` installs there (`npm ci`). Without them the tests fail, saying how to install
+//! them; `MOCAP2D_SKIP_JS=1` skips them instead, loudly.
+
+use mocap2d::character::read_character;
+use mocap2d::export::{self, Animation};
+use mocap2d::retarget::files::{read_manifest, read_pose, read_skeleton};
+use mocap2d::synth::{self, Scenario, SynthClip, SynthOptions};
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn clip(scenario: Scenario, frames: u32) -> SynthClip {
+    synth::render(&SynthOptions {
+        scenario,
+        width: 320,
+        height: 240,
+        seed: 1,
+        frames: Some(frames),
+    })
+}
+
+/// A run folder whose tracks are `clip`'s ground truth: tracks.csv, seeds.toml, run.toml.
+fn run_from_gt(dir: &Path, clip: &SynthClip) -> PathBuf {
+    let run = dir.join("gt.mocap");
+    std::fs::create_dir_all(&run).unwrap();
+    let mut t = String::from("frame,joint,x,y,angle,score,status\n");
+    for (f, joints) in clip.gt.iter().enumerate() {
+        for (j, (name, (x, y))) in clip.joint_names.iter().zip(joints).enumerate() {
+            let score = 0.5 + 0.01 * ((f + j) % 50) as f32;
+            let _ = writeln!(t, "{f},{name},{x:.3},{y:.3},0.0000,{score:.3},ok");
+        }
+    }
+    std::fs::write(run.join("tracks.csv"), t).unwrap();
+    std::fs::write(run.join("seeds.toml"), clip.seeds_toml()).unwrap();
+    let (w, h) = (clip.width(), clip.height());
+    std::fs::write(
+        run.join("run.toml"),
+        format!("width = {w}\nheight = {h}\nfps = 30.0\n"),
+    )
+    .unwrap();
+    run
+}
+
+fn mocap2d(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "exit {:?}: {}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The retargeted animation of `run`, as the exporters read it.
+fn animation(run: &Path) -> Animation {
+    let dir = run.join("retarget");
+    let skeleton = read_skeleton(&dir.join("pose.csv"), &dir.join("bones.csv")).unwrap();
+    let (frames, joints) = read_pose(&dir.join("pose.csv"), &skeleton.names).unwrap();
+    let m = read_manifest(&dir.join("retarget.toml")).unwrap();
+    Animation {
+        skeleton,
+        frames,
+        joints,
+        fps: m.fps,
+        width: m.width,
+        height: m.height,
+    }
+}
+
+/// A walk retargeted onto the robot with the cartoon filter (so the first frame is not the rest
+/// pose and bones stretch): the run folder, its animation and the target file.
+fn retargeted_walk(dir: &Path) -> (PathBuf, Animation, PathBuf) {
+    let run = run_from_gt(dir, &clip(Scenario::Walk, 36));
+    let target = root().join("configs/characters/robot.toml");
+    ok(&mocap2d(&[
+        "retarget",
+        s(&run),
+        "--target",
+        s(&target),
+        "--cartoon",
+        "2",
+    ]));
+    let anim = animation(&run);
+    (run, anim, target)
+}
+
+/// Runs `tests/js/<script>` with Node.js; `None` (after a loud note) when the JavaScript side is
+/// not installed and `MOCAP2D_SKIP_JS=1`; a failure saying how to install it otherwise.
+fn node(script: &str, package: &str, args: &[&str]) -> Option<String> {
+    let js = root().join("tests/js");
+    let installed = js.join("node_modules").join(package).is_dir();
+    let node_ok = Command::new("node")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !(installed && node_ok) {
+        let what = if node_ok {
+            format!("the npm package {package} is not installed in tests/js/node_modules")
+        } else {
+            "Node.js (`node`) is not on PATH".to_owned()
+        };
+        if std::env::var("MOCAP2D_SKIP_JS").is_ok_and(|v| v == "1") {
+            eprintln!(
+                "\n*** SKIPPED {script}: {what} (MOCAP2D_SKIP_JS=1). This export was NOT \
+                 checked against its runtime. ***\n"
+            );
+            return None;
+        }
+        panic!(
+            "{what}: run `bash scripts/setup` (installs Node.js and runs `npm ci` in tests/js), \
+             or set MOCAP2D_SKIP_JS=1 to skip the runtime checks"
+        );
+    }
+    let o = Command::new("node")
+        .arg(js.join(script))
+        .args(args)
+        .current_dir(&js)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "node {script} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    Some(String::from_utf8(o.stdout).unwrap())
+}
+
+/// Seconds of every exported frame, as written in the keys.
+fn times(anim: &Animation) -> Vec<f64> {
+    anim.frames
+        .iter()
+        .map(|&f| (f as f64 / anim.fps * 1e6).round() / 1e6)
+        .collect()
+}
+
+/// For each joint, its position (runtime axes) at each time: a root joint's bone origin, else
+/// the tip of the bone ending at it. `bones` is the runtime's list of posed bones.
+fn joint_tracks(anim: &Animation, bones: &[Value]) -> Vec<Vec<[f64; 2]>> {
+    let names = export::spine::bone_names(anim);
+    (0..anim.skeleton.len())
+        .map(|j| {
+            let b = bones
+                .iter()
+                .find(|b| b["name"] == names.of_joint[j].as_str())
+                .unwrap_or_else(|| panic!("no bone {}", names.of_joint[j]));
+            let (kx, ky) = match anim.skeleton.parent(j) {
+                None => ("x", "y"),
+                Some(_) => ("tipX", "tipY"),
+            };
+            let xs = b[kx].as_array().unwrap();
+            let ys = b[ky].as_array().unwrap();
+            xs.iter()
+                .zip(ys)
+                .map(|(x, y)| [x.as_f64().unwrap(), y.as_f64().unwrap()])
+                .collect()
+        })
+        .collect()
+}
+
+/// Largest distance (px) between the runtime's joints, mapped to output px by `to_px`, and the
+/// pose.
+fn worst_error(
+    anim: &Animation,
+    tracks: &[Vec<[f64; 2]>],
+    to_px: impl Fn([f64; 2]) -> [f64; 2],
+) -> f64 {
+    let mut worst = 0.0f64;
+    for (j, track) in tracks.iter().enumerate() {
+        assert_eq!(track.len(), anim.frames.len());
+        for (t, &q) in track.iter().enumerate() {
+            let p = to_px(q);
+            let want = anim.joints[t][j];
+            worst = worst.max((p[0] - want[0]).hypot(p[1] - want[1]));
+        }
+    }
+    worst
+}
+
+#[test]
+fn spine_runtime_poses_every_joint_where_pose_csv_has_it() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, target) = retargeted_walk(d.path());
+    std::fs::create_dir_all(d.path().join("out")).unwrap();
+    let out = d.path().join("out/robot.json");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "spine",
+        "--target",
+        s(&target),
+        "--out",
+        s(&out),
+    ]));
+    let atlas = out.with_extension("atlas");
+    let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
+    let Some(text) = node(
+        "spine_pose.mjs",
+        "@esotericsoftware/spine-core",
+        &[s(&out), s(&atlas), &ts.join(",")],
+    ) else {
+        return;
+    };
+    let r: Value = serde_json::from_str(&text).unwrap();
+    assert!(
+        r["version"].as_str().unwrap().starts_with("4.2"),
+        "{}",
+        r["version"]
+    );
+    assert_eq!(r["animation"], "mocap");
+    let origin = anim.floor_origin();
+    let tracks = joint_tracks(&anim, r["bones"].as_array().unwrap());
+    let worst = worst_error(&anim, &tracks, |q| {
+        export::spine::from_spine_point(q, origin)
+    });
+    eprintln!(
+        "spine runtime: worst joint error {worst:.4} px over {} frames",
+        anim.frames.len()
+    );
+    assert!(worst < 0.5, "worst joint error {worst} px");
+    // The pose is not trivially still: joints move by tens of px over the clip.
+    let travel = (0..anim.skeleton.len())
+        .map(|j| {
+            let (a, b) = (anim.joints[0][j], anim.joints[anim.frames.len() - 1][j]);
+            (a[0] - b[0]).hypot(a[1] - b[1])
+        })
+        .fold(0.0f64, f64::max);
+    assert!(travel > 10.0, "{travel}");
+
+    // The skin: one weighted mesh on the character's atlas region, bound so that the runtime
+    // shows it, in the setup pose, where mocap2d puts it.
+    let slots = r["slots"].as_array().unwrap();
+    assert_eq!(slots.len(), 1);
+    assert_eq!(slots[0]["type"], "MeshAttachment");
+    assert_eq!(slots[0]["weighted"], true);
+    assert_eq!(slots[0]["region"], "robot");
+    let character = read_character(&target).unwrap();
+    let m = read_manifest(&run.join("retarget/retarget.toml")).unwrap();
+    let mesh = export::skin::skin_mesh(
+        &character,
+        m.placement(),
+        &anim.joints[0],
+        &d.path().join("out"),
+    )
+    .unwrap();
+    assert_eq!(slots[0]["vertices"], mesh.rest.len());
+    assert_eq!(slots[0]["triangles"], mesh.triangles.len());
+    assert!(mesh.rest.len() > 100);
+    let world = r["vertices"][0][0].as_array().unwrap();
+    let mut worst_vertex = 0.0f64;
+    for (v, want) in mesh.rest.iter().enumerate() {
+        let q = [
+            world[2 * v].as_f64().unwrap(),
+            world[2 * v + 1].as_f64().unwrap(),
+        ];
+        let p = export::spine::from_spine_point(q, origin);
+        worst_vertex = worst_vertex.max((p[0] - want[0]).hypot(p[1] - want[1]));
+    }
+    eprintln!("spine runtime: mesh vertices in the setup pose off by at most {worst_vertex:.4} px");
+    assert!(worst_vertex < 0.05, "mesh vertex off by {worst_vertex} px");
+    let atlas_text = std::fs::read_to_string(&atlas).unwrap();
+    assert!(
+        atlas_text.starts_with("../../../"),
+        "the atlas page names the character image relative to the atlas: {atlas_text}"
+    );
+    let page = atlas
+        .parent()
+        .unwrap()
+        .join(atlas_text.lines().next().unwrap());
+    assert!(page.is_file(), "{}", page.display());
+}
+
+#[test]
+fn dragonbones_runtime_poses_every_joint_where_pose_csv_has_it() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, _) = retargeted_walk(d.path());
+    let out = d.path().join("walk_ske.json");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "dragonbones",
+        "--out",
+        s(&out),
+    ]));
+    // DragonBones' animation clock starts at the run's first frame.
+    let first = anim.frames[0] as f64 / anim.fps;
+    let ts: Vec<String> = times(&anim)
+        .iter()
+        .map(|t| (t - first).to_string())
+        .collect();
+    let Some(text) = node(
+        "dragonbones_pose.mjs",
+        "@cocos/dragonbones-js",
+        &[s(&out), &ts.join(",")],
+    ) else {
+        return;
+    };
+    let r: Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    assert_eq!(r["version"], "5.5");
+    assert_eq!(r["animation"], "mocap");
+    assert_eq!(
+        r["slots"].as_array().unwrap().len(),
+        anim.skeleton.bones().len()
+    );
+    let origin = anim.floor_origin();
+    // y down (DragonBones' data axes) and y up (this runtime's Cocos default, which flips y).
+    let down = joint_tracks(&anim, r["bonesYDown"].as_array().unwrap());
+    let worst_down = worst_error(&anim, &down, |q| [q[0] + origin[0], q[1] + origin[1]]);
+    let up = joint_tracks(&anim, r["bonesYUp"].as_array().unwrap());
+    let worst_up = worst_error(&anim, &up, |q| [q[0] + origin[0], origin[1] - q[1]]);
+    eprintln!("dragonbones runtime: worst joint error {worst_down:.4} px (y down), {worst_up:.4} px (y up)");
+    assert!(
+        worst_down < 0.5,
+        "y down: worst joint error {worst_down} px"
+    );
+    assert!(worst_up < 0.5, "y up: worst joint error {worst_up} px");
+}
+
+#[test]
+fn bvh_reads_back_to_the_pose() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, _) = retargeted_walk(d.path());
+    let out = d.path().join("walk.bvh");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "bvh",
+        "--out",
+        s(&out),
+    ]));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let m = export::bvh::read_bvh(&text).unwrap();
+    let (mut got, mut want) = (m.names.clone(), anim.skeleton.names.clone());
+    got.sort();
+    want.sort();
+    assert_eq!(
+        got, want,
+        "one BVH joint per joint (a single root: no extra ROOT)"
+    );
+    assert!((m.frame_time - 1.0 / 30.0).abs() < 1e-8);
+    assert_eq!(m.positions.len(), anim.frames.len());
+    let origin = anim.floor_origin();
+    let mut worst = 0.0f64;
+    for (t, frame) in m.positions.iter().enumerate() {
+        for (j, name) in anim.skeleton.names.iter().enumerate() {
+            let k = m.names.iter().position(|n| n == name).unwrap();
+            // Parents as in the skeleton.
+            let parent = anim
+                .skeleton
+                .parent(j)
+                .map(|p| anim.skeleton.names[p].as_str());
+            assert_eq!(m.parents[k].map(|p| m.names[p].as_str()), parent, "{name}");
+            let p = export::bvh::from_bvh_point(frame[k], origin);
+            let want = anim.joints[t][j];
+            worst = worst.max((p[0] - want[0]).hypot(p[1] - want[1]));
+        }
+    }
+    assert!(worst < 0.01, "worst joint error {worst} px");
+}
+
+#[test]
+fn invalid_combinations_exit_2_with_a_clear_message() {
+    let d = tempfile::tempdir().unwrap();
+    let run = run_from_gt(d.path(), &clip(Scenario::Walk, 8));
+    let out = d.path().join("x.out");
+    let expect = |args: &[&str], needles: &[&str]| {
+        let o = mocap2d(args);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: {n:?} not in {err}");
+        }
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    };
+    let robot = root().join("configs/characters/robot.toml");
+    expect(
+        &["export", s(&run), "--format", "spine", "--out", s(&out)],
+        &["--format spine needs --target"],
+    );
+    expect(
+        &["export", s(&run), "--format", "fbx", "--out", s(&out)],
+        &["fbx", "spine", "dragonbones", "bvh", "dlc-csv", "json"],
+    );
+    for f in ["bvh", "dragonbones"] {
+        expect(
+            &["export", s(&run), "--format", f, "--out", s(&out)],
+            &["no retargeted pose", "mocap2d retarget"],
+        );
+    }
+    expect(
+        &[
+            "export",
+            s(&run),
+            "--format",
+            "spine",
+            "--target",
+            s(&robot),
+            "--out",
+            s(&out),
+        ],
+        &["no retargeted pose", "mocap2d retarget"],
+    );
+    expect(
+        &[
+            "export",
+            s(&run),
+            "--format",
+            "bvh",
+            "--target",
+            s(&robot),
+            "--out",
+            s(&out),
+        ],
+        &["does not use a character file"],
+    );
+    expect(
+        &[
+            "export",
+            s(&d.path().join("nope")),
+            "--format",
+            "json",
+            "--out",
+            s(&out),
+        ],
+        &["not a folder"],
+    );
+    expect(
+        &[
+            "export",
+            s(&run),
+            "--format",
+            "json",
+            "--out",
+            s(&d.path().join("no/x.json")),
+        ],
+        &["does not exist"],
+    );
+    // Retargeted onto the robot, exported as Spine with the imp: refused.
+    ok(&mocap2d(&["retarget", s(&run), "--target", s(&robot)]));
+    expect(
+        &[
+            "export",
+            s(&run),
+            "--format",
+            "spine",
+            "--target",
+            s(&root().join("configs/characters/imp.toml")),
+            "--out",
+            s(&out),
+        ],
+        &["was retargeted onto", "robot.toml"],
+    );
+    // Tracks edited after the retarget: refused.
+    let tracks = run.join("tracks.csv");
+    let text = std::fs::read_to_string(&tracks).unwrap();
+    std::fs::write(&tracks, text.replacen(",ok\n", ",low\n", 1)).unwrap();
+    expect(
+        &["export", s(&run), "--format", "bvh", "--out", s(&out)],
+        &["tracks.csv changed after the retarget"],
+    );
+}
+
+#[test]
+fn json_holds_tracks_and_pose_and_exports_are_deterministic() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, target) = retargeted_walk(d.path());
+    let out = d.path().join("walk.json");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "json",
+        "--out",
+        s(&out),
+    ]));
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(doc["schema"], export::json::SCHEMA);
+    assert_eq!(doc["tracks"]["frames"].as_array().unwrap().len(), 36);
+    let pose = &doc["pose"];
+    assert_eq!(pose["frames"].as_array().unwrap().len(), anim.frames.len());
+    let t = 7;
+    for (j, name) in anim.skeleton.names.iter().enumerate() {
+        assert_eq!(pose["joints"][j]["name"], name.as_str());
+        let x = pose["frames"][t]["x"][j].as_f64().unwrap();
+        assert!((x - anim.joints[t][j][0]).abs() < 1e-9);
+    }
+    // Same inputs, same bytes, for every format.
+    for (f, extra) in [
+        ("spine", vec!["--target", s(&target)]),
+        ("dragonbones", vec![]),
+        ("bvh", vec![]),
+        ("dlc-csv", vec![]),
+        ("json", vec![]),
+    ] {
+        let a = d.path().join(format!("a.{f}"));
+        let b = d.path().join(format!("b.{f}"));
+        for p in [&a, &b] {
+            let mut args = vec!["export", s(&run), "--format", f, "--out", s(p)];
+            args.extend(&extra);
+            ok(&mocap2d(&args));
+        }
+        assert_eq!(
+            std::fs::read(&a).unwrap(),
+            std::fs::read(&b).unwrap(),
+            "{f}"
+        );
+    }
+}
+
+#[test]
+fn dlc_csv_reads_back_to_the_tracks() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 12);
+    let run = run_from_gt(d.path(), &c);
+    let out = d.path().join("walk.csv");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "dlc-csv",
+        "--out",
+        s(&out),
+    ]));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text.starts_with("scorer,mocap2d,mocap2d,mocap2d,"),
+        "{}",
+        &text[..80]
+    );
+    let t = mocap2d::seed::dlc::read_dlc_csv(&out).unwrap();
+    assert_eq!(t.joints, c.joint_names);
+    assert_eq!(t.rows.len(), 12);
+    let rows = mocap2d::run::tracks::read_tracks(&run.join("tracks.csv")).unwrap();
+    let mut worst = 0.0f64;
+    for r in &rows {
+        let row = &t.rows[r.frame as usize];
+        assert_eq!(row.frame, Some(r.frame));
+        let j = t.joints.iter().position(|n| *n == r.joint).unwrap();
+        let p = row.points[j].unwrap();
+        worst = worst.max((p[0] - r.x as f64).hypot(p[1] - r.y as f64));
+        assert!(
+            (row.likelihood[j].unwrap() - r.score as f64).abs() < 1e-6,
+            "{r:?}"
+        );
+    }
+    assert!(worst < 0.01, "worst joint error {worst} px");
+}
+
+/// A labels file as DeepLabCut (2.2 and later) writes `CollectedData_<scorer>.csv`: three header
+/// rows, three index columns (`labeled-data`, the video, the image), empty cells where a point is
+/// not labelled. Frame `seed` is fully labelled from `clip`'s ground truth; frame `seed + 3` lacks
+/// its second joint.
+fn collected_data(clip: &SynthClip, seed: usize) -> String {
+    let n = clip.joint_names.len();
+    let mut s = String::from("scorer,,");
+    s.push_str(&",me".repeat(2 * n));
+    s.push_str("\nbodyparts,,");
+    for name in &clip.joint_names {
+        let _ = write!(s, ",{name},{name}");
+    }
+    s.push_str("\ncoords,,");
+    s.push_str(&",x,y".repeat(n));
+    s.push('\n');
+    for f in [seed, seed + 3] {
+        let _ = write!(s, "labeled-data,walk,img{f:04}.png");
+        for (j, (x, y)) in clip.gt[f].iter().enumerate() {
+            if f != seed && j == 1 {
+                s.push_str(",,");
+            } else {
+                let _ = write!(s, ",{x:.3},{y:.3}");
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+#[test]
+fn dlc_labels_seed_the_tracker_like_a_seed_file() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 16);
+    synth::write_clip(&c, d.path()).unwrap();
+    let clip_path = d.path().join("clip.mp4");
+    let seed = 4;
+    // The same rectangles as a seed file.
+    let mut seeds = format!("frame = {seed}\n");
+    for (j, name) in c.joint_names.iter().enumerate() {
+        let (x, y) = c.gt[seed][j];
+        let _ = write!(
+            seeds,
+            "\n[[joint]]\nname = \"{name}\"\nx = {x:.3}\ny = {y:.3}\nw = 15\nh = 15\n"
+        );
+        if let Some(p) = c.parents[j] {
+            let _ = writeln!(seeds, "parent = \"{}\"", c.joint_names[p]);
+        }
+    }
+    let seeds_path = d.path().join("seeds.toml");
+    std::fs::write(&seeds_path, seeds).unwrap();
+    let csv = d.path().join("CollectedData_me.csv");
+    std::fs::write(&csv, collected_data(&c, seed)).unwrap();
+    let a = d.path().join("a.mocap");
+    let b = d.path().join("b.mocap");
+    ok(&mocap2d(&[
+        "track",
+        s(&clip_path),
+        "--seeds",
+        s(&seeds_path),
+        "--out",
+        s(&a),
+        "-q",
+    ]));
+    // The skeleton from a seed file (synth's joints.toml: frame 0, other positions: only the
+    // parent links are read).
+    let o = mocap2d(&[
+        "track",
+        s(&clip_path),
+        "--seeds-from-dlc",
+        s(&csv),
+        "--seed-frame",
+        &seed.to_string(),
+        "--skeleton",
+        s(&d.path().join("joints.toml")),
+        "--out",
+        s(&b),
+        "-q",
+    ]);
+    ok(&o);
+    assert_eq!(
+        std::fs::read_to_string(a.join("tracks.csv")).unwrap(),
+        std::fs::read_to_string(b.join("tracks.csv")).unwrap()
+    );
+    let copied = std::fs::read_to_string(b.join("seeds.toml")).unwrap();
+    assert!(
+        copied.contains("DeepLabCut") && copied.contains("frame = 4"),
+        "{copied}"
+    );
+
+    // Without --skeleton: a chain, said on stderr.
+    let o = mocap2d(&[
+        "track",
+        s(&clip_path),
+        "--seeds-from-dlc",
+        s(&csv),
+        "--seed-frame",
+        "4",
+        "--out",
+        s(&d.path().join("c.mocap")),
+        "-q",
+    ]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("note: the DeepLabCut CSV has no skeleton")
+            && err.contains("pelvis -> chest -> neck"),
+        "{err}"
+    );
+
+    // Frame 7 lacks a label; frame 9 is not in the file; no --seed-frame.
+    for (args, needles) in [
+        (
+            vec!["--seed-frame", "7"],
+            vec!["line 5", "\"chest\"", "not labelled on frame 7", "frames 4"],
+        ),
+        (vec!["--seed-frame", "9"], vec!["no row is frame 9", "4, 7"]),
+        (
+            vec!["--seed-frame", "4", "--seed-size", "400"],
+            vec!["not fully inside", "--seed-size"],
+        ),
+        (vec![], vec!["--seed-frame"]),
+    ] {
+        let out = d.path().join("bad.mocap");
+        let mut all = vec![
+            "track",
+            s(&clip_path),
+            "--seeds-from-dlc",
+            s(&csv),
+            "--out",
+            s(&out),
+        ];
+        all.extend(args.iter().copied());
+        let o = mocap2d(&all);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: {n:?} not in {err}");
+        }
+        assert!(!out.exists());
+    }
+}

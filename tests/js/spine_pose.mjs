@@ -1,0 +1,62 @@
+// Loads a Spine skeleton JSON (+ its .atlas) with the official runtime (spine-core's
+// SkeletonJson and AtlasAttachmentLoader; no textures are needed to pose a skeleton), applies the
+// first animation at each given time and prints, as JSON on stdout, every bone's world position
+// (origin and tip = its local (length, 0)) and the skin's world vertices at each time.
+// Usage: node spine_pose.mjs SKELETON.json SKELETON.atlas T1,T2,...
+import { readFileSync } from "node:fs";
+import * as spine from "@esotericsoftware/spine-core";
+
+const [skeletonPath, atlasPath, timesArg] = process.argv.slice(2);
+const atlas = new spine.TextureAtlas(readFileSync(atlasPath, "utf8"));
+const json = new spine.SkeletonJson(new spine.AtlasAttachmentLoader(atlas));
+const data = json.readSkeletonData(readFileSync(skeletonPath, "utf8"));
+const skeleton = new spine.Skeleton(data);
+if (data.animations.length !== 1) throw new Error(`expected one animation, found ${data.animations.length}`);
+const animation = data.animations[0];
+const times = timesArg.split(",").map(Number);
+
+const out = {
+  version: data.version,
+  fps: data.fps,
+  animation: animation.name,
+  duration: animation.duration,
+  bones: data.bones.map((b) => ({ name: b.name, parent: b.parent ? b.parent.name : null, x: [], y: [], tipX: [], tipY: [] })),
+  slots: [],
+  vertices: [],
+};
+for (const t of times) {
+  skeleton.setToSetupPose();
+  animation.apply(skeleton, t, t, false, [], 1, spine.MixBlend.setup, spine.MixDirection.mixIn);
+  skeleton.updateWorldTransform(spine.Physics.none);
+  skeleton.bones.forEach((bone, i) => {
+    const tip = bone.localToWorld(new spine.Vector2(bone.data.length, 0));
+    out.bones[i].x.push(bone.worldX);
+    out.bones[i].y.push(bone.worldY);
+    out.bones[i].tipX.push(tip.x);
+    out.bones[i].tipY.push(tip.y);
+  });
+  const frame = [];
+  for (const slot of skeleton.slots) {
+    const a = slot.getAttachment();
+    if (a instanceof spine.MeshAttachment) {
+      const world = new Array(a.worldVerticesLength).fill(0);
+      a.computeWorldVertices(slot, 0, a.worldVerticesLength, world, 0, 2);
+      frame.push(world);
+    }
+  }
+  out.vertices.push(frame);
+}
+for (const slot of skeleton.slots) {
+  const a = slot.getAttachment();
+  out.slots.push({
+    name: slot.data.name,
+    bone: slot.bone.data.name,
+    attachment: a ? a.name : null,
+    type: a ? a.constructor.name : null,
+    weighted: a instanceof spine.VertexAttachment ? a.bones !== null : null,
+    vertices: a instanceof spine.VertexAttachment ? a.worldVerticesLength / 2 : 0,
+    triangles: a instanceof spine.MeshAttachment ? a.triangles.length / 3 : 0,
+    region: a && a.region ? a.region.name : null,
+  });
+}
+process.stdout.write(JSON.stringify(out));
