@@ -13,6 +13,7 @@
 use super::strip::{Shape, Strip, View};
 use crate::geom::{Point, Vector};
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 /// The prior on one joint: where the motion model expects it, as an offset (px) from its parent
 /// (a root: from the origin), and the weight of the squared distance to it (per px²). Relative to
@@ -67,12 +68,21 @@ fn step(p: &Problem, img: &View, x: &mut [Point], max_step: f32, widen: f32) -> 
     {
         let mut h = DMatrix::<f64>::zeros(2 * n, 2 * n);
         let mut g = DVector::<f64>::zeros(2 * n);
-        for (si, s) in p.strips.iter().enumerate() {
-            let w = p.strip_weight[si];
-            if w <= 0.0 {
+        // The strips' normal equations are independent: computed in parallel, summed in order
+        // (so the sum, and the result, do not depend on the threads).
+        let normals: Vec<_> = p
+            .strips
+            .par_iter()
+            .enumerate()
+            .map(|(si, s)| {
+                let w = p.strip_weight[si];
+                (w > 0.0).then(|| s.normal(img, x[s.parent], x[s.child], w, widen))
+            })
+            .collect();
+        for ((si, s), ne) in p.strips.iter().enumerate().zip(normals) {
+            let Some(ne) = ne else {
                 continue;
-            }
-            let ne = s.normal(img, x[s.parent], x[s.child], w, widen);
+            };
             let idx = match s.shape {
                 Shape::Bone => [2 * s.parent, 2 * s.parent + 1, 2 * s.child, 2 * s.child + 1],
                 Shape::Patch => [2 * s.parent, 2 * s.parent + 1, usize::MAX, usize::MAX],
