@@ -181,11 +181,16 @@ fn main() -> anyhow::Result<()> {
                 }] += 1;
                 if v >= 0.7 {
                     if let Some(par) = clip.parents[j] {
-                        let gp = |k: usize| mocap2d::geom::Point::new(clip.gt[f][k].0, clip.gt[f][k].1);
+                        let gp =
+                            |k: usize| mocap2d::geom::Point::new(clip.gt[f][k].0, clip.gt[f][k].1);
                         let ft = t.fit_bone(&frames_img[f], j, gp(par), gp(j));
                         let fe = t.fit_bone(&frames_img[f], j, est[par].pos, est[j].pos);
                         if let (Some(ft), Some(fe)) = (ft, fe) {
-                            if ft.cost < fe.cost { truth_better += 1; } else { est_better += 1; }
+                            if ft.cost < fe.cost {
+                                truth_better += 1;
+                            } else {
+                                est_better += 1;
+                            }
                         }
                     }
                 }
@@ -210,7 +215,12 @@ fn main() -> anyhow::Result<()> {
     let ms = |s: f64| 1000.0 * s / tm.frames.max(1) as f64;
     println!(
         "ms/frame: pyramid {:.2} search {:.2} refine {:.2} judge {:.2} reacquire {:.2} learn {:.2}",
-        ms(tm.pyramid), ms(tm.search), ms(tm.refine), ms(tm.judge), ms(tm.reacquire), ms(tm.learn)
+        ms(tm.pyramid),
+        ms(tm.search),
+        ms(tm.refine),
+        ms(tm.judge),
+        ms(tm.reacquire),
+        ms(tm.learn)
     );
     filled.extend(filler.finish());
     let (mut fg, mut ft) = (0, 0);

@@ -30,6 +30,30 @@ pub enum Command {
     Retarget(RetargetArgs),
     /// Deform and draw the target character along RUN/retarget/pose.csv: a video and/or PNGs.
     Render(RenderArgs),
+    /// Seeding guide for one frame: silhouette, curve skeleton, numbered end and branch points
+    /// (PNG), and optionally a starter seed file with one joint per point.
+    Guide(GuideArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct GuideArgs {
+    /// The clip: a video FFmpeg decodes, or a folder of numbered PNG/JPEG frames.
+    pub clip: PathBuf,
+    /// Frame to draw the guide on (0 = first).
+    #[arg(long, default_value_t = 0)]
+    pub frame: u64,
+    /// PNG to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write a starter seed file (joints j0, j1, … at the points); never overwrites a file.
+    #[arg(long, value_name = "TOML")]
+    pub seeds_out: Option<PathBuf>,
+    /// Frame rate in frames/s (image folders: default 30; videos: overrides the stream's).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// A clean plate (image of the background alone, clip-sized) instead of the temporal median.
+    #[arg(long, value_name = "PLATE")]
+    pub background: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]

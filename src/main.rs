@@ -130,6 +130,30 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 to.join(" and ")
             );
         }
+        Command::Guide(a) => {
+            let opts = app::GuideOptions {
+                clip: a.clip,
+                frame: a.frame,
+                out: a.out,
+                seeds_out: a.seeds_out,
+                fps: a.fps,
+                background: a.background,
+            };
+            let s = app::guide(&opts)?;
+            let seeds = opts
+                .seeds_out
+                .as_ref()
+                .map(|p| format!(" and {}", p.display()))
+                .unwrap_or_default();
+            eprintln!(
+                "frame {}: silhouette {} px, {} end points, {} branch points -> {}{seeds}",
+                opts.frame,
+                s.silhouette_px,
+                s.end_points,
+                s.branch_points,
+                opts.out.display()
+            );
+        }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
                 println!("{line}");
