@@ -33,6 +33,18 @@ pub enum Command {
     /// Seeding guide for one frame: silhouette, curve skeleton, numbered end and branch points
     /// (PNG), and optionally a starter seed file with one joint per point.
     Guide(GuideArgs),
+    /// Review a run: RUN/review/overlay.mp4, confidence.png and segments.png.
+    Review(ReviewArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ReviewArgs {
+    /// Run folder written by `mocap2d track`.
+    pub run: PathBuf,
+    /// The clip the run was tracked from [default: the path in run.toml, or its name beside
+    /// the run folder].
+    #[arg(long)]
+    pub clip: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]

@@ -154,6 +154,15 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 opts.out.display()
             );
         }
+        Command::Review(a) => {
+            let s = app::review(&a.run, a.clip.as_deref(), &bars)?;
+            eprintln!(
+                "reviewed {} frames -> {} (overlay.mp4, confidence.png, segments.png: {})",
+                s.frames,
+                s.dir.display(),
+                s.sheet_note
+            );
+        }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
                 println!("{line}");
