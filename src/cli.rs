@@ -35,6 +35,21 @@ pub enum Command {
     Guide(GuideArgs),
     /// Review a run: RUN/review/overlay.mp4, confidence.png and segments.png.
     Review(ReviewArgs),
+    /// Local page (http://127.0.0.1:PORT) to correct a run's segment files in the browser.
+    Serve(ServeArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ServeArgs {
+    /// Run folder written by `mocap2d track` (its segments/ folder is what the page edits).
+    pub run: PathBuf,
+    /// Port on 127.0.0.1 (0: any free port).
+    #[arg(long, default_value_t = crate::app::DEFAULT_PORT)]
+    pub port: u16,
+    /// The clip the run was tracked from [default: the path in run.toml, or its name beside
+    /// the run folder].
+    #[arg(long)]
+    pub clip: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]

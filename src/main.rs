@@ -163,6 +163,15 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 s.sheet_note
             );
         }
+        Command::Serve(a) => {
+            let stop = std::sync::atomic::AtomicBool::new(false);
+            app::serve(&a.run, a.clip.as_deref(), a.port, &stop, |addr| {
+                eprintln!(
+                    "serving {} on http://{addr}/ (this machine only); Ctrl-C to stop",
+                    a.run.display()
+                );
+            })?;
+        }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
                 println!("{line}");

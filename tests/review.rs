@@ -205,7 +205,11 @@ fn review_writes_overlay_plot_and_sheet_that_decode() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("3 segments"));
     let three = png_size(&rev.join("segments.png"));
     // Three tiles of the frame width side by side, one row as before.
-    assert_eq!(three, (8 + 3 * (W + 8), one_tile.1), "{three:?} vs {one_tile:?}");
+    assert_eq!(
+        three,
+        (8 + 3 * (W + 8), one_tile.1),
+        "{three:?} vs {one_tile:?}"
+    );
 
     // Same inputs, same bytes.
     let plot1 = std::fs::read(rev.join("confidence.png")).unwrap();
