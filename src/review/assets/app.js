@@ -83,10 +83,11 @@ async function openSegment(id) {
   say("");
 }
 
-// Largest display scale (≤ 1) at which the frame fits beside the list.
+// Display scale at which the frame fits beside the list (small frames enlarged up to 3×).
 function displayScale() {
   const room = Math.max(320, window.innerWidth - 300);
-  return Math.min(1, room / seg.width);
+  const high = Math.max(240, window.innerHeight - 160);
+  return Math.min(3, room / seg.width, high / seg.height);
 }
 
 function buildStage() {
@@ -157,7 +158,9 @@ function update() {
     rotate.setAttribute("cx", j.w / 2 + 4 * h); rotate.setAttribute("cy", 0);
     rotate.setAttribute("r", h);
     const t = svg.querySelector(`text.name[data-name="${CSS.escape(j.name)}"]`);
-    t.setAttribute("x", j.x + Math.max(j.w, j.h) / 2 + 2);
+    t.style.fontSize = `${11 / displayScale()}px`;
+    t.style.strokeWidth = `${3 / displayScale()}px`;
+    t.setAttribute("x", j.x + Math.max(j.w, j.h) / 2 + 2 / displayScale());
     t.setAttribute("y", j.y - j.h / 2);
   }
   const bones = svg.querySelector("#bones");
