@@ -78,12 +78,23 @@ impl Served {
         }
     }
 
-    /// Sends one request (HTTP/1.0, so the reply is never chunked) and returns status and body.
+    /// Sends one request (HTTP/1.0, so the reply is never chunked) with a JSON body and returns
+    /// status and body.
     fn raw(&self, method: &str, target: &str, host: &str, body: &[u8]) -> (u16, Vec<u8>) {
+        self.raw_with(
+            method,
+            target,
+            &format!("Host: {host}\r\nContent-Type: application/json"),
+            body,
+        )
+    }
+
+    /// As [`Served::raw`] with the given header lines (`\r\n`-separated).
+    fn raw_with(&self, method: &str, target: &str, headers: &str, body: &[u8]) -> (u16, Vec<u8>) {
         let mut s = TcpStream::connect(self.addr).unwrap();
         let head = format!(
-            "{method} {target} HTTP/1.0\r\nHost: {host}\r\nConnection: close\r\n\
-             Content-Type: application/json\r\nContent-Length: {}\r\n\r\n",
+            "{method} {target} HTTP/1.0\r\n{headers}\r\nConnection: close\r\n\
+             Content-Length: {}\r\n\r\n",
             body.len()
         );
         s.write_all(head.as_bytes()).unwrap();
@@ -305,6 +316,28 @@ fn bad_requests_get_4xx_and_touch_nothing() {
     assert_eq!(srv.req("POST", "/", b"").0, 405);
     let (st, _) = srv.raw("GET", "/api/run", "evil.example:80", b"");
     assert_eq!(st, 403);
+    let host = format!("Host: 127.0.0.1:{}", srv.addr.port());
+    let body = edits(&|_| {});
+    // Another site's page, and a body that is not declared JSON (a cross-site form).
+    let evil = format!("{host}\r\nOrigin: http://evil.example\r\nContent-Type: application/json");
+    assert_eq!(
+        srv.raw_with("POST", "/api/segments/002", &evil, body.as_bytes())
+            .0,
+        403
+    );
+    let form = format!("{host}\r\nContent-Type: text/plain");
+    assert_eq!(
+        srv.raw_with("POST", "/api/segments/002", &form, body.as_bytes())
+            .0,
+        415
+    );
+    // The same body from the page itself is accepted (and changes nothing: same values).
+    let own = format!(
+        "{host}\r\nOrigin: http://{host_}\r\nContent-Type: application/json",
+        host_ = &host[6..]
+    );
+    let (st, r) = srv.raw_with("POST", "/api/segments/002", &own, body.as_bytes());
+    assert_eq!(st, 200, "{}", String::from_utf8_lossy(&r));
 
     assert!(
         snapshot(&run) == before,

@@ -6,7 +6,7 @@ use crate::decode;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::review::data::RunData;
-use crate::review::{draw, overlay, plot, sheet};
+use crate::review::{draw, plot, sheet};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -96,7 +96,7 @@ fn write_overlay(
     for item in decode::spawn_reader(source, 4) {
         let (f, mut img) = item?;
         raw(f, &img);
-        overlay::draw_frame(&mut img, data, f);
+        crate::review::overlay::draw_frame(&mut img, data, f);
         video.write(&img)?;
         n = f + 1;
         if !progress.advance(1) {

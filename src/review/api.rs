@@ -18,6 +18,9 @@ use std::sync::{Arc, Mutex};
 /// Folder under `segments/` keeping every replaced version of a segment file.
 pub const HISTORY_DIR: &str = "history";
 
+/// A segment file that does not parse: its id and the message.
+type Broken = (String, String);
+
 /// Runs the resume of segment number `k` of the run folder and refreshes the review outputs,
 /// returning a message for the page. Supplied by the app once `resume` exists (issue 4).
 pub type ResumeFn = dyn Fn(&Path, u32) -> Result<String> + Send + Sync;
@@ -110,7 +113,7 @@ impl Api {
 
     /// Segment ids and first frames present now (files that parse), in number order, with the
     /// unreadable ones' messages.
-    fn listing(&self) -> (Vec<(String, u64)>, Vec<(String, String)>) {
+    fn listing(&self) -> (Vec<(String, u64)>, Vec<Broken>) {
         let mut ok = Vec::new();
         let mut bad = Vec::new();
         let Ok(rd) = std::fs::read_dir(self.seg_dir()) else {

@@ -234,7 +234,7 @@ pub fn render(frame: &RgbImage, guide: &Guide, frame_index: u64) -> RgbImage {
         };
         let at = (p.at.0 as f32, p.at.1 as f32);
         draw::dot(&mut img, at, r * scale as i32, colour);
-        let off = (r as i32 + 2) * scale as i32;
+        let off = (r + 2) * scale as i32;
         draw::label(
             &mut img,
             at.0 as i32 + off,
@@ -270,7 +270,7 @@ pub fn starter_joints(guide: &Guide, width: u32, height: u32) -> Vec<SeedJoint> 
         .enumerate()
         .map(|(i, p)| {
             let mut s = ((2.0 * p.half_width).round() as u32 + 1).clamp(lo, hi);
-            if s % 2 == 0 {
+            if s.is_multiple_of(2) {
                 s -= 1;
             }
             let s = s.max(MIN_BOX_PX);

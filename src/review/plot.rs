@@ -115,32 +115,27 @@ pub fn confidence(data: &RunData) -> RgbImage {
                 );
             }
             if lo.is_finite() {
-                let (ylo, yhi) = (y_of(lo), y_of(hi));
-                draw_line_segment_mut(&mut img, (x as f32, ylo), (x as f32, yhi), LINE);
-                if let Some((plo, phi)) = prev {
-                    // Join to the previous column's range.
-                    let y_prev = if ylo > phi {
-                        phi
-                    } else if yhi < plo {
-                        plo
+                let (top, bot) = (y_of(hi), y_of(lo));
+                draw_line_segment_mut(&mut img, (x as f32, top), (x as f32, bot), LINE);
+                // Join to the previous column's range where the two do not overlap.
+                if let Some((ptop, pbot)) = prev {
+                    let join = if top > pbot {
+                        Some((pbot, top))
+                    } else if bot < ptop {
+                        Some((ptop, bot))
                     } else {
-                        ylo
+                        None
                     };
-                    let y_here = if ylo > phi {
-                        yhi
-                    } else if yhi < plo {
-                        ylo
-                    } else {
-                        ylo
-                    };
-                    draw_line_segment_mut(
-                        &mut img,
-                        (x as f32 - 1.0, y_prev),
-                        (x as f32, y_here),
-                        LINE,
-                    );
+                    if let Some((from, to)) = join {
+                        draw_line_segment_mut(
+                            &mut img,
+                            (x as f32 - 1.0, from),
+                            (x as f32, to),
+                            LINE,
+                        );
+                    }
                 }
-                prev = Some((y_of(hi), y_of(lo)));
+                prev = Some((top, bot));
             } else {
                 prev = None;
             }

@@ -70,13 +70,32 @@ impl Server {
     fn answer(&self, mut req: tiny_http::Request) {
         let method = req.method().as_str().to_owned();
         let url = req.url().to_owned();
-        let host_ok = req
-            .headers()
-            .iter()
-            .find(|h| h.field.equiv("Host"))
-            .is_some_and(|h| self.host_allowed(h.value.as_str()));
-        let reply = if !host_ok {
-            Reply::error(403, "requests must be addressed to 127.0.0.1 or localhost")
+        let header = |name: &'static str| {
+            req.headers()
+                .iter()
+                .find(|h| h.field.equiv(name))
+                .map(|h| h.value.as_str().to_owned())
+        };
+        let host_ok = header("Host").is_some_and(|h| self.host_allowed(&h));
+        // A page from elsewhere may send requests here; its Origin gives it away.
+        let origin_ok = header("Origin").is_none_or(|o| {
+            o.strip_prefix("http://")
+                .is_some_and(|h| self.host_allowed(h))
+        });
+        // Only JSON may be posted: a cross-site form or `text/plain` fetch cannot send it
+        // without a CORS preflight, which this server never grants.
+        let json = header("Content-Type")
+            .is_some_and(|c| c.split(';').next().unwrap_or("").trim() == "application/json");
+        let reply = if !host_ok || !origin_ok {
+            Reply::error(
+                403,
+                "requests must come from this machine's page (127.0.0.1 or localhost)",
+            )
+        } else if method == "POST" && !json {
+            Reply::error(
+                415,
+                "POST bodies must be JSON (Content-Type: application/json)",
+            )
         } else {
             let mut body = Vec::new();
             let read = req

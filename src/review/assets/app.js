@@ -266,7 +266,9 @@ async function save() {
 async function resume() {
   if (dirty) { say("Save first: resume starts from the saved segment file.", "error"); return; }
   say(`Resuming from segment ${seg.id}…`);
-  const r = await call(`/api/segments/${seg.id}/resume`, { method: "POST" });
+  const r = await call(`/api/segments/${seg.id}/resume`, {
+    method: "POST", headers: { "Content-Type": "application/json" }, body: "{}",
+  });
   if (!r.ok) { say(r.body ? r.body.error : `resume failed (${r.status})`, "error"); return; }
   say(r.body.message, "ok");
   await loadRun();
