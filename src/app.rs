@@ -302,8 +302,14 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
 
 mod animate;
 mod export;
+mod guide;
+mod review;
+mod serve;
 pub use animate::{
     render, retarget, run_frame, RenderOptions, RenderSummary, Renderer, RetargetSummary,
     RETARGET_DIR,
 };
 pub use export::{export, ExportOptions, ExportSummary};
+pub use guide::{guide, read_frame, GuideOptions, GuideSummary};
+pub use review::{review, ReviewSummary, REVIEW_DIR};
+pub use serve::{serve, DEFAULT_PORT};

@@ -32,6 +32,13 @@ pub enum Command {
     Render(RenderArgs),
     /// Export a run for animation tools: Spine, DragonBones, BVH, DeepLabCut CSV or JSON.
     Export(ExportArgs),
+    /// Seeding guide for one frame: silhouette, curve skeleton, numbered end and branch points
+    /// (PNG), and optionally a starter seed file with one joint per point.
+    Guide(GuideArgs),
+    /// Review a run: RUN/review/overlay.mp4, confidence.png and segments.png.
+    Review(ReviewArgs),
+    /// Local page (http://127.0.0.1:PORT) to correct a run's segment files in the browser.
+    Serve(ServeArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -47,6 +54,50 @@ pub struct ExportArgs {
     /// File to write (spine also writes the .atlas beside it).
     #[arg(long)]
     pub out: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ServeArgs {
+    /// Run folder written by `mocap2d track` (its segments/ folder is what the page edits).
+    pub run: PathBuf,
+    /// Port on 127.0.0.1 (0: any free port).
+    #[arg(long, default_value_t = crate::app::DEFAULT_PORT)]
+    pub port: u16,
+    /// The clip the run was tracked from [default: the path in run.toml, or its name beside
+    /// the run folder].
+    #[arg(long)]
+    pub clip: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ReviewArgs {
+    /// Run folder written by `mocap2d track`.
+    pub run: PathBuf,
+    /// The clip the run was tracked from [default: the path in run.toml, or its name beside
+    /// the run folder].
+    #[arg(long)]
+    pub clip: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct GuideArgs {
+    /// The clip: a video FFmpeg decodes, or a folder of numbered PNG/JPEG frames.
+    pub clip: PathBuf,
+    /// Frame to draw the guide on (0 = first).
+    #[arg(long, default_value_t = 0)]
+    pub frame: u64,
+    /// PNG to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write a starter seed file (joints j0, j1, … at the points); never overwrites a file.
+    #[arg(long, value_name = "TOML")]
+    pub seeds_out: Option<PathBuf>,
+    /// Frame rate in frames/s (image folders: default 30; videos: overrides the stream's).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// A clean plate (image of the background alone, clip-sized) instead of the temporal median.
+    #[arg(long, value_name = "PLATE")]
+    pub background: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]

@@ -23,6 +23,7 @@ pub mod geom;
 pub mod progress;
 pub mod render;
 pub mod retarget;
+pub mod review;
 pub mod run;
 pub mod seed;
 pub mod skeleton;

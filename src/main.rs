@@ -154,6 +154,48 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 eprintln!("note: {}", s.note);
             }
         }
+        Command::Guide(a) => {
+            let opts = app::GuideOptions {
+                clip: a.clip,
+                frame: a.frame,
+                out: a.out,
+                seeds_out: a.seeds_out,
+                fps: a.fps,
+                background: a.background,
+            };
+            let s = app::guide(&opts)?;
+            let seeds = opts
+                .seeds_out
+                .as_ref()
+                .map(|p| format!(" and {}", p.display()))
+                .unwrap_or_default();
+            eprintln!(
+                "frame {}: silhouette {} px, {} end points, {} branch points -> {}{seeds}",
+                opts.frame,
+                s.silhouette_px,
+                s.end_points,
+                s.branch_points,
+                opts.out.display()
+            );
+        }
+        Command::Review(a) => {
+            let s = app::review(&a.run, a.clip.as_deref(), &bars)?;
+            eprintln!(
+                "reviewed {} frames -> {} (overlay.mp4, confidence.png, segments.png: {})",
+                s.frames,
+                s.dir.display(),
+                s.sheet_note
+            );
+        }
+        Command::Serve(a) => {
+            let stop = std::sync::atomic::AtomicBool::new(false);
+            app::serve(&a.run, a.clip.as_deref(), a.port, &stop, |addr| {
+                eprintln!(
+                    "serving {} on http://{addr}/ (this machine only); Ctrl-C to stop",
+                    a.run.display()
+                );
+            })?;
+        }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
                 println!("{line}");

@@ -1,0 +1,127 @@
+//! `mocap2d guide CLIP --frame N --out guide.png [--seeds-out starter.toml]`: the seeding guide
+//! of one frame (thesis §3.3, §4.3; see [`crate::review::guide`]).
+
+use super::{background_for, TrackOptions};
+use crate::decode;
+use crate::error::{Error, Result};
+use crate::review::{draw, guide};
+use image::RgbImage;
+use std::path::{Path, PathBuf};
+
+/// Options of `mocap2d guide`.
+#[derive(Debug, Clone)]
+pub struct GuideOptions {
+    pub clip: PathBuf,
+    /// 0-based frame to draw the guide on.
+    pub frame: u64,
+    /// PNG to write.
+    pub out: PathBuf,
+    /// Starter seed file to write; never overwrites an existing file.
+    pub seeds_out: Option<PathBuf>,
+    pub fps: Option<f64>,
+    /// A clean plate instead of the temporal median.
+    pub background: Option<PathBuf>,
+}
+
+/// What `guide` found.
+#[derive(Debug, Clone)]
+pub struct GuideSummary {
+    pub end_points: usize,
+    pub branch_points: usize,
+    /// Silhouette area, px.
+    pub silhouette_px: u64,
+}
+
+/// Decodes frame `index` of `clip` (streaming through the frames before it).
+/// [`Error::Usage`] when the clip is shorter.
+pub fn read_frame(clip: &Path, fps: Option<f64>, index: u64) -> Result<RgbImage> {
+    let mut source = decode::open(clip, fps)?;
+    let mut n = 0u64;
+    while let Some(f) = source.next_frame()? {
+        if n == index {
+            return Ok(f);
+        }
+        n += 1;
+    }
+    Err(Error::Usage(format!(
+        "--frame {index} is beyond {}, which has {n} frames (0 to {}); give a frame of the clip",
+        clip.display(),
+        n.saturating_sub(1)
+    )))
+}
+
+/// `mocap2d guide`: checks the options, builds the background model as `track` would, finds the
+/// silhouette, skeleton and candidate joints of the frame, and writes the PNG (and the starter
+/// seed file). Nothing is written when an input is bad.
+pub fn guide(opts: &GuideOptions) -> Result<GuideSummary> {
+    let ext = opts.out.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !ext.eq_ignore_ascii_case("png") {
+        return Err(Error::Usage(format!(
+            "--out {}: the guide is a PNG image; give a path ending in .png",
+            opts.out.display()
+        )));
+    }
+    if let Some(s) = &opts.seeds_out {
+        if s.exists() {
+            return Err(Error::Usage(format!(
+                "--seeds-out {}: the file exists and may hold your edits; the guide never \
+                 overwrites a seed file: choose another name or delete it",
+                s.display()
+            )));
+        }
+    }
+    let frame = read_frame(&opts.clip, opts.fps, opts.frame)?;
+    let (w, h) = frame.dimensions();
+    let track_opts = TrackOptions {
+        fps: opts.fps,
+        background: opts.background.clone(),
+        ..TrackOptions::new(&opts.clip, "")
+    };
+    let (bg, _) = background_for(&track_opts, w, h)?;
+    let bg = bg.expect("background_for gives a model unless --no-background");
+    let mask = guide::silhouette(&frame, &bg);
+    let area = mask.pixels().filter(|p| p.0[0] != 0).count() as u64;
+    if area == 0 {
+        return Err(Error::Usage(format!(
+            "{}: frame {}: no foreground found against the background model; the character must \
+             move during the clip for the temporal median to leave it out, or give a clean plate \
+             with --background PLATE",
+            opts.clip.display(),
+            opts.frame
+        )));
+    }
+    let g = guide::guide_of_mask(mask);
+    if g.points.is_empty() && opts.seeds_out.is_some() {
+        return Err(Error::Usage(format!(
+            "{}: frame {}: the silhouette's skeleton has no end or branch point (it is a closed \
+             loop), so there is no starter joint to write; try another --frame",
+            opts.clip.display(),
+            opts.frame
+        )));
+    }
+    let img = guide::render(&frame, &g, opts.frame);
+    crate::atomic::write(&opts.out, &draw::png_bytes(&img))?;
+    if let Some(s) = &opts.seeds_out {
+        let joints = guide::starter_joints(&g, w, h);
+        let header = format!(
+            "Starter seeds from `mocap2d guide` on frame {} of {}: one joint per end (limb tip) \
+             and branch point of the silhouette's skeleton, parents along the skeleton.\n\
+             Rename the joints, move them onto the real joints, add the ones between (elbows, \
+             knees) and delete the rest.",
+            opts.frame,
+            opts.clip.display()
+        );
+        let text = crate::seed::to_toml(opts.frame, &joints, &header);
+        crate::atomic::write(s, text.as_bytes())?;
+    }
+    let ends = g
+        .points
+        .iter()
+        .filter(|p| p.kind == crate::review::graph::NodeKind::End)
+        .count();
+    Ok(GuideSummary {
+        end_points: ends,
+        branch_points: g.points.len() - ends,
+        silhouette_px: area,
+    })
+}

@@ -1,0 +1,447 @@
+//! What the correction page asks of the run folder, as plain functions from a request to a
+//! [`Reply`]: the segment list with flags, one segment's joints, its first frame as PNG, and
+//! saving edited rectangles into `segments/NNN.toml` — atomically, the previous version kept in
+//! `segments/history/NNN.K.toml`, the file written in the seed-file format exactly as a hand
+//! edit would leave it (it reads back with [`crate::seed::read_seeds`]). The HTTP side is
+//! [`super::serve`].
+
+use super::data::{is_segment_name, RunData, SEGMENTS_DIR};
+use super::draw::png_bytes;
+use crate::error::{Error, Result};
+use crate::seed::{parse_seeds, to_toml, MIN_BOX_PX};
+use serde::Deserialize;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// Folder under `segments/` keeping every replaced version of a segment file.
+pub const HISTORY_DIR: &str = "history";
+
+/// A segment file that does not parse: its id and the message.
+type Broken = (String, String);
+
+/// Runs the resume of segment number `k` of the run folder and refreshes the review outputs,
+/// returning a message for the page. Supplied by the app once `resume` exists (issue 4).
+pub type ResumeFn = dyn Fn(&Path, u32) -> Result<String> + Send + Sync;
+
+/// An HTTP reply: status, content type, body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reply {
+    pub status: u16,
+    pub content_type: &'static str,
+    pub body: Vec<u8>,
+}
+
+impl Reply {
+    pub fn json(status: u16, v: &Value) -> Reply {
+        Reply {
+            status,
+            content_type: "application/json",
+            body: v.to_string().into_bytes(),
+        }
+    }
+
+    /// `{"error": msg}` with `status`.
+    pub fn error(status: u16, msg: impl Into<String>) -> Reply {
+        Reply::json(status, &json!({ "error": msg.into() }))
+    }
+}
+
+/// The run being corrected, and the first frames decoded so far (PNG bytes by frame).
+pub struct Api {
+    data: RunData,
+    clip: PathBuf,
+    frames: Mutex<BTreeMap<u64, Arc<Vec<u8>>>>,
+    resume: Option<Box<ResumeFn>>,
+}
+
+/// A rectangle as the page sends it.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BoxEdit {
+    name: String,
+    x: f64,
+    y: f64,
+    w: f64,
+    h: f64,
+    #[serde(default)]
+    angle: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SaveBody {
+    joints: Vec<BoxEdit>,
+}
+
+impl Api {
+    /// Reads the run folder (and finds its clip: `clip`, else where run.toml says).
+    pub fn open(run: &Path, clip: Option<&Path>, resume: Option<Box<ResumeFn>>) -> Result<Api> {
+        let data = RunData::read(run)?;
+        let clip = data.clip(clip)?;
+        Ok(Api {
+            data,
+            clip,
+            frames: Mutex::new(BTreeMap::new()),
+            resume,
+        })
+    }
+
+    fn seg_dir(&self) -> PathBuf {
+        self.data.dir.join(SEGMENTS_DIR)
+    }
+
+    /// The segment file of id `id` (digits only, and present), or a 404 reply.
+    fn segment_path(&self, id: &str) -> std::result::Result<PathBuf, Reply> {
+        let name = format!("{id}.toml");
+        if !is_segment_name(&name) {
+            return Err(Reply::error(
+                404,
+                format!("no segment {id:?}: ids are digits"),
+            ));
+        }
+        let p = self.seg_dir().join(name);
+        if !p.is_file() {
+            return Err(Reply::error(
+                404,
+                format!("no segment {id}: {} does not exist", rel(&p)),
+            ));
+        }
+        Ok(p)
+    }
+
+    /// Segment ids and first frames present now (files that parse), in number order, with the
+    /// unreadable ones' messages.
+    fn listing(&self) -> (Vec<(String, u64)>, Vec<Broken>) {
+        let mut ok = Vec::new();
+        let mut bad = Vec::new();
+        let Ok(rd) = std::fs::read_dir(self.seg_dir()) else {
+            return (ok, bad);
+        };
+        let mut names: Vec<String> = rd
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| is_segment_name(n))
+            .collect();
+        names.sort_by_key(|n| {
+            (
+                n.trim_end_matches(".toml").parse::<u64>().unwrap_or(0),
+                n.clone(),
+            )
+        });
+        for n in names {
+            let id = n.trim_end_matches(".toml").to_owned();
+            match crate::seed::read_seeds(&self.seg_dir().join(&n)) {
+                Ok((s, _)) => ok.push((id, s.frame)),
+                Err(e) => bad.push((id, e.to_string())),
+            }
+        }
+        (ok, bad)
+    }
+
+    /// `GET /api/run`: frame size, joints, and the segments with their flags.
+    pub fn run_info(&self) -> Reply {
+        let (segs, bad) = self.listing();
+        let list: Vec<Value> = segs
+            .iter()
+            .enumerate()
+            .map(|(k, (id, frame))| {
+                let end = segs.get(k + 1).map_or(self.data.end(), |s| s.1).max(*frame);
+                let f = self.data.flags(*frame, end);
+                json!({
+                    "id": id, "frame": frame, "end": end, "flagged": f.flagged(),
+                    "flags": f.describe(), "low": f.low, "occluded": f.occluded, "lost": f.lost,
+                    "min_score": f.min_score,
+                })
+            })
+            .collect();
+        let m = &self.data.manifest;
+        let joints: Vec<Value> = self
+            .data
+            .seeds
+            .joints
+            .iter()
+            .map(|j| json!({ "name": j.name, "parent": j.parent }))
+            .collect();
+        Reply::json(
+            200,
+            &json!({
+                "run": self.data.dir.display().to_string(),
+                "width": m.width, "height": m.height, "fps": m.fps, "frames": m.frames,
+                "joints": joints, "segments": list,
+                "broken": bad.iter().map(|(id, e)| json!({"id": id, "error": e})).collect::<Vec<_>>(),
+                "resume": self.resume.is_some(),
+            }),
+        )
+    }
+
+    /// `GET /api/segments/ID`: the segment file's frame, joints and text.
+    pub fn segment(&self, id: &str) -> Reply {
+        let path = match self.segment_path(id) {
+            Ok(p) => p,
+            Err(r) => return r,
+        };
+        let (seeds, text) = match crate::seed::read_seeds(&path) {
+            Ok(s) => s,
+            Err(e) => return Reply::error(409, format!("{e}; fix the file by hand first")),
+        };
+        let joints: Vec<Value> = seeds
+            .joints
+            .iter()
+            .map(|j| {
+                json!({
+                    "name": j.name, "x": j.bbox.cx, "y": j.bbox.cy, "w": j.bbox.w, "h": j.bbox.h,
+                    "angle": j.bbox.angle_rad, "parent": j.parent, "score": j.score,
+                    "status": j.status,
+                })
+            })
+            .collect();
+        Reply::json(
+            200,
+            &json!({
+                "id": id, "frame": seeds.frame, "file": rel(&path), "text": text,
+                "width": self.data.manifest.width, "height": self.data.manifest.height,
+                "joints": joints,
+            }),
+        )
+    }
+
+    /// `GET /api/segments/ID/frame.png`: the segment's first frame. The first request decodes
+    /// the clip once up to the last segment, keeping every segment's first frame.
+    pub fn frame_png(&self, id: &str) -> Reply {
+        let path = match self.segment_path(id) {
+            Ok(p) => p,
+            Err(r) => return r,
+        };
+        let frame = match crate::seed::read_seeds(&path) {
+            Ok((s, _)) => s.frame,
+            Err(e) => return Reply::error(409, e.to_string()),
+        };
+        let mut cache = self.frames.lock().unwrap_or_else(|e| e.into_inner());
+        if !cache.contains_key(&frame) {
+            let mut want: Vec<u64> = self.listing().0.iter().map(|s| s.1).collect();
+            want.push(frame);
+            if let Err(e) = decode_frames(&self.clip, self.data.manifest.fps, &want, &mut cache) {
+                return Reply::error(500, e.to_string());
+            }
+        }
+        match cache.get(&frame) {
+            Some(png) => Reply {
+                status: 200,
+                content_type: "image/png",
+                body: png.as_ref().clone(),
+            },
+            None => Reply::error(
+                404,
+                format!(
+                    "frame {frame} of segment {id} is beyond the clip {}",
+                    self.clip.display()
+                ),
+            ),
+        }
+    }
+
+    /// `POST /api/segments/ID` with `{"joints":[{"name","x","y","w","h","angle"}, …]}`: checks
+    /// every rectangle, then writes the segment file (see the module doc).
+    pub fn save(&self, id: &str, body: &[u8]) -> Reply {
+        let path = match self.segment_path(id) {
+            Ok(p) => p,
+            Err(r) => return r,
+        };
+        let edit: SaveBody = match serde_json::from_slice(body) {
+            Ok(b) => b,
+            Err(e) => {
+                return Reply::error(
+                    400,
+                    format!("malformed body: {e}; send {{\"joints\": [{{\"name\", \"x\", \"y\", \"w\", \"h\", \"angle\"}}, …]}}"),
+                )
+            }
+        };
+        let (seeds, old_text) = match crate::seed::read_seeds(&path) {
+            Ok(s) => s,
+            Err(e) => return Reply::error(409, format!("{e}; fix the file by hand first")),
+        };
+        let mut joints = seeds.joints.clone();
+        let mut seen = vec![false; joints.len()];
+        for b in &edit.joints {
+            let Some(i) = joints.iter().position(|j| j.name == b.name) else {
+                return Reply::error(400, format!("joint {:?} is not in {}", b.name, rel(&path)));
+            };
+            if std::mem::replace(&mut seen[i], true) {
+                return Reply::error(400, format!("joint {:?} is given twice", b.name));
+            }
+            if let Err(msg) = check_box(b) {
+                return Reply::error(400, format!("joint {:?}: {msg}", b.name));
+            }
+            let bb = &mut joints[i].bbox;
+            (bb.cx, bb.cy) = (b.x as f32, b.y as f32);
+            (bb.w, bb.h) = (b.w as u32, b.h as u32);
+            bb.angle_rad = crate::geom::wrap_angle(b.angle as f32);
+        }
+        if let Some(i) = seen.iter().position(|s| !s) {
+            return Reply::error(
+                400,
+                format!("joint {:?} is missing; send every joint", joints[i].name),
+            );
+        }
+        let text = to_toml(seeds.frame, &joints, &leading_comment(&old_text));
+        let (w, h) = (self.data.manifest.width, self.data.manifest.height);
+        let check = parse_seeds(&text, &path)
+            .and_then(|s| s.check_against_clip(&path, w, h, None).map(|_| s));
+        if let Err(e) = check {
+            return Reply::error(400, e.to_string());
+        }
+        if text == old_text {
+            return Reply::json(
+                200,
+                &json!({ "saved": false, "file": rel(&path), "message": "unchanged" }),
+            );
+        }
+        match write_with_history(&path, &old_text, &text) {
+            Ok(prev) => Reply::json(
+                200,
+                &json!({ "saved": true, "file": rel(&path), "previous": rel(&prev) }),
+            ),
+            Err(e) => Reply::error(500, e.to_string()),
+        }
+    }
+
+    /// `POST /api/segments/ID/resume`: resumes tracking from this segment, when the app supplies
+    /// a resume; 501 otherwise.
+    pub fn resume(&self, id: &str) -> Reply {
+        if let Err(r) = self.segment_path(id) {
+            return r;
+        }
+        let Some(resume) = &self.resume else {
+            return Reply::error(
+                501,
+                "resume is not available in this build: it needs `mocap2d resume RUN --segment K` \
+                 (segments, issue 4). Save your edits, then run that command when it exists.",
+            );
+        };
+        let k: u32 = id.parse().unwrap_or(0);
+        match resume(&self.data.dir, k) {
+            Ok(msg) => Reply::json(200, &json!({ "resumed": true, "message": msg })),
+            Err(e) if e.is_user_error() => Reply::error(400, e.to_string()),
+            Err(e) => Reply::error(500, e.to_string()),
+        }
+    }
+}
+
+/// Why a rectangle from the page cannot be written, if it cannot.
+fn check_box(b: &BoxEdit) -> std::result::Result<(), String> {
+    for (k, v) in [("x", b.x), ("y", b.y), ("angle", b.angle)] {
+        if !v.is_finite() {
+            return Err(format!("`{k}` must be a finite number"));
+        }
+    }
+    for (k, v) in [("w", b.w), ("h", b.h)] {
+        if v.fract() != 0.0 || v < MIN_BOX_PX as f64 || v > 1e6 {
+            return Err(format!(
+                "`{k}` must be a whole number of px, at least {MIN_BOX_PX}, got {v}"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The `#` comment lines (and blank lines) a file starts with.
+fn leading_comment(text: &str) -> String {
+    text.lines()
+        .take_while(|l| l.trim().is_empty() || l.trim_start().starts_with('#'))
+        .filter(|l| !l.trim().is_empty())
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Keeps `old` as the next `segments/history/NNN.K.toml` and writes `new` over `path`, both
+/// atomically. Returns the history file.
+fn write_with_history(path: &Path, old: &str, new: &str) -> Result<PathBuf> {
+    let dir = path
+        .parent()
+        .expect("a segment file is in segments/")
+        .join(HISTORY_DIR);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let prev = (1..)
+        .map(|k| dir.join(format!("{stem}.{k:03}.toml")))
+        .find(|p| !p.exists())
+        .expect("some number is free");
+    crate::atomic::write(&prev, old.as_bytes())?;
+    crate::atomic::write(path, new.as_bytes())?;
+    Ok(prev)
+}
+
+/// A path as shown to the page: from the `segments` folder on.
+fn rel(p: &Path) -> String {
+    let parts: Vec<String> = p
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    match parts.iter().rposition(|c| c == SEGMENTS_DIR) {
+        Some(i) => parts[i..].join("/"),
+        None => p.display().to_string(),
+    }
+}
+
+/// Decodes `clip` once up to the last of `want`, putting those frames into `cache` as PNG.
+fn decode_frames(
+    clip: &Path,
+    fps: f64,
+    want: &[u64],
+    cache: &mut BTreeMap<u64, Arc<Vec<u8>>>,
+) -> Result<()> {
+    let last = want.iter().copied().max().unwrap_or(0);
+    let mut source = crate::decode::open(clip, Some(fps))?;
+    let mut f = 0u64;
+    while f <= last {
+        let Some(img) = source.next_frame()? else {
+            break;
+        };
+        if want.contains(&f) && !cache.contains_key(&f) {
+            cache.insert(f, Arc::new(png_bytes(&img)));
+        }
+        f += 1;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leading_comment_keeps_only_the_header() {
+        let t = "# segment 3\n#\n# frames 10..20\n\nframe = 10\n# not this\n";
+        assert_eq!(leading_comment(t), "# segment 3\n#\n# frames 10..20");
+        assert_eq!(leading_comment("frame = 1\n"), "");
+    }
+
+    #[test]
+    fn boxes_must_be_whole_and_finite() {
+        let b = |w: f64, x: f64| BoxEdit {
+            name: "a".into(),
+            x,
+            y: 1.0,
+            w,
+            h: 9.0,
+            angle: 0.0,
+        };
+        assert!(check_box(&b(9.0, 3.0)).is_ok());
+        assert!(check_box(&b(9.5, 3.0)).is_err());
+        assert!(check_box(&b(4.0, 3.0)).is_err());
+        assert!(check_box(&b(9.0, f64::NAN)).is_err());
+    }
+
+    #[test]
+    fn rel_starts_at_segments() {
+        assert_eq!(
+            rel(Path::new("/a/r.mocap/segments/history/003.001.toml")),
+            "segments/history/003.001.toml"
+        );
+    }
+}

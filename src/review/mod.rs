@@ -1,0 +1,13 @@
+//! Seeing and fixing a run: the seeding guide (silhouette skeleton, thesis §3.3/§4.3), the review
+//! outputs (overlay video, confidence plot, segment contact sheet) and the local correction page.
+
+pub mod api;
+pub mod data;
+pub mod draw;
+pub mod graph;
+pub mod guide;
+pub mod overlay;
+pub mod plot;
+pub mod serve;
+pub mod sheet;
+pub mod thin;

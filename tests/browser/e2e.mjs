@@ -1,0 +1,142 @@
+// End-to-end test of the correction page in headless Chromium (Debian's /usr/bin/chromium,
+// driven by playwright-core): render and track a tiny synth clip, give the run a segment file,
+// start `mocap2d serve`, drag the head's rectangle, rotate the wrist's, save, and check that the
+// segment file changed by the dragged amounts. Leaves a screenshot of the page.
+//
+//   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default target/debug/mocap2d;
+//                                          CHROMIUM: default /usr/bin/chromium;
+//                                          SCREENSHOT: default target/browser/page.png)
+import { chromium } from "playwright-core";
+import { spawn, execFileSync } from "node:child_process";
+import fs from "node:fs";
+import os from "node:os";
+import path from "node:path";
+
+const root = path.resolve(path.dirname(new URL(import.meta.url).pathname), "../..");
+const bin = path.resolve(root, process.env.MOCAP2D || "target/debug/mocap2d");
+const shot = path.resolve(root, process.env.SCREENSHOT || "target/browser/page.png");
+let failures = 0;
+const check = (ok, what) => {
+  console.log(`${ok ? "ok  " : "FAIL"} ${what}`);
+  if (!ok) failures++;
+};
+
+/** The joint table `name` of a seed-format file: x, y, w, h, angle. */
+function joint(text, name) {
+  const block = text.split("[[joint]]").find((b) => b.includes(`name = "${name}"`));
+  const num = (k) => {
+    const m = block.match(new RegExp(`^${k} = (-?[0-9.]+)$`, "m"));
+    return m ? Number(m[1]) : 0;
+  };
+  return { x: num("x"), y: num("y"), w: num("w"), h: num("h"), angle: num("angle") };
+}
+
+const work = fs.mkdtempSync(path.join(os.tmpdir(), "mocap2d-e2e-"));
+const run = (...args) => execFileSync(bin, args, { cwd: work, stdio: ["ignore", "pipe", "pipe"] });
+run("synth", "walk", "--out", ".", "--size", "320x240", "--frames", "30", "--seed", "5");
+run("track", "clip.mp4", "--seeds", "joints.toml", "--out", "r.mocap", "-q");
+// A segment file as `track --segment-len` writes them: the seed-file format, frame = first frame.
+fs.mkdirSync(path.join(work, "r.mocap/segments"));
+const segFile = path.join(work, "r.mocap/segments/000.toml");
+fs.copyFileSync(path.join(work, "r.mocap/seeds.toml"), segFile);
+
+const server = spawn(bin, ["serve", "r.mocap", "--port", "0"], { cwd: work });
+const url = await new Promise((resolve, reject) => {
+  let err = "";
+  server.stderr.on("data", (d) => {
+    err += d;
+    const m = err.match(/http:\/\/127\.0\.0\.1:\d+\//);
+    if (m) resolve(m[0]);
+  });
+  server.on("exit", (c) => reject(new Error(`serve exited with ${c}: ${err}`)));
+  setTimeout(() => reject(new Error(`serve did not start: ${err}`)), 20000);
+});
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync"],
+});
+try {
+  const page = await browser.newPage({ viewport: { width: 1000, height: 720 } });
+  page.on("pageerror", (e) => check(false, `no script error (${e.message})`));
+  await page.goto(url);
+  const head = page.locator('g.joint[data-name="head"] rect.body');
+  await head.waitFor();
+  await page.waitForFunction(() => {
+    const im = document.querySelector("#stage image");
+    return im && im.getBBox().width > 0;
+  });
+  const before = joint(fs.readFileSync(segFile, "utf8"), "head");
+  const scale = await page.evaluate(() => {
+    const svg = document.querySelector("#stage");
+    return svg.getBoundingClientRect().width / svg.viewBox.baseVal.width;
+  });
+
+  // Drag the head 40 px right and 24 px up on screen.
+  const box = await head.boundingBox();
+  const [cx, cy] = [Math.round(box.x + box.width / 2), Math.round(box.y + box.height / 2)];
+  await page.mouse.move(cx, cy);
+  await page.mouse.down();
+  await page.mouse.move(cx + 20, cy - 12, { steps: 4 });
+  await page.mouse.move(cx + 40, cy - 24, { steps: 4 });
+  await page.mouse.up();
+
+  // Select the left wrist (handles show on the selected rectangle only) and turn it to point
+  // straight down (+90°, clockwise on screen).
+  const wb = await page.locator('g.joint[data-name="wrist_l"] rect.body').boundingBox();
+  await page.mouse.click(wb.x + wb.width / 2, wb.y + wb.height / 2);
+  const wrist = await page.evaluate(() => {
+    const g = document.querySelector('g.joint[data-name="wrist_l"]');
+    const r = g.querySelector("circle.rotate").getBoundingClientRect();
+    const b = g.querySelector("rect.body").getBoundingClientRect();
+    return { hx: r.x + r.width / 2, hy: r.y + r.height / 2, cx: b.x + b.width / 2, cy: b.y + b.height / 2 };
+  });
+  await page.mouse.move(wrist.hx, wrist.hy);
+  await page.mouse.down();
+  await page.mouse.move(wrist.cx, wrist.cy + 60, { steps: 6 });
+  await page.mouse.up();
+
+  await page.click("#save");
+  await page.waitForFunction(() => /Saved|Not saved/.test(document.querySelector("#message").textContent));
+  const msg = await page.textContent("#message");
+  check(msg.startsWith("Saved segments/000.toml"), `save reported: ${msg}`);
+
+  const text = fs.readFileSync(segFile, "utf8");
+  const after = joint(text, "head");
+  const [dx, dy] = [after.x - before.x, after.y - before.y];
+  const tol = 0.51 / scale;
+  check(Math.abs(dx - 40 / scale) <= tol && Math.abs(dy + 24 / scale) <= tol,
+    `head moved by (${dx.toFixed(3)}, ${dy.toFixed(3)}) px; dragged (${(40 / scale).toFixed(3)}, ${(-24 / scale).toFixed(3)}) at scale ${scale.toFixed(3)}`);
+  check(after.w === before.w && after.h === before.h, `head size kept (${after.w}x${after.h})`);
+  const angle = joint(text, "wrist_l").angle;
+  check(Math.abs(angle - Math.PI / 2) < 0.1, `wrist_l turned to ${angle} rad (want about ${(Math.PI / 2).toFixed(4)})`);
+  check(fs.existsSync(path.join(work, "r.mocap/segments/history/000.001.toml")), "previous version kept in segments/history");
+  // The file is still a seed file: the tool itself must accept it as seeds.
+  let parses = true;
+  try {
+    run("track", "clip.mp4", "--seeds", "r.mocap/segments/000.toml", "--out", "again.mocap", "-q");
+  } catch (e) {
+    parses = false;
+    console.log(String(e.stderr));
+  }
+  check(parses, "saved segment file is accepted by `mocap2d track --seeds`");
+
+  await page.click("#resume");
+  await page.waitForFunction(() => document.querySelector("#message").className === "error");
+  const resumeMsg = await page.textContent("#message");
+  check(resumeMsg.includes("mocap2d resume"), `resume answers: ${resumeMsg}`);
+
+  // Select the head so the screenshot shows a selection, then capture the page.
+  const hb = await head.boundingBox();
+  await page.mouse.click(hb.x + hb.width / 2, hb.y + hb.height / 2);
+  fs.mkdirSync(path.dirname(shot), { recursive: true });
+  await page.screenshot({ path: shot, fullPage: true });
+  console.log(`screenshot: ${shot}`);
+} finally {
+  await browser.close();
+  server.kill();
+  fs.rmSync(work, { recursive: true, force: true });
+}
+console.log(`browser: ${failures ? 0 : 1} passed, ${failures ? 1 : 0} failed`);
+process.exit(failures ? 1 : 0);

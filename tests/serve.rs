@@ -1,0 +1,361 @@
+//! `mocap2d serve` at the HTTP level: a server on a free port of 127.0.0.1 in a thread, spoken
+//! to over plain TCP so that malformed and hostile requests can be sent exactly: the page and
+//! API answer, a save rewrites the segment file by the sent amounts and keeps the old one,
+//! and bad requests get 4xx without touching any file.
+#![cfg(feature = "ffmpeg")]
+
+use mocap2d::progress::NoProgress;
+use mocap2d::seed::{read_seeds, to_toml};
+use mocap2d::synth::{render, write_clip, Scenario, SynthOptions};
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// A tracked synth run (320×240, 30 frames) with segment files at frames 0, 10 and 20.
+fn run_with_segments() -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let clip = render(&SynthOptions {
+        scenario: Scenario::Walk,
+        width: 320,
+        height: 240,
+        seed: 4,
+        frames: Some(30),
+    });
+    write_clip(&clip, dir.path()).unwrap();
+    let mut opts = mocap2d::app::TrackOptions::new(
+        dir.path().join("clip.mp4"),
+        dir.path().join("joints.toml"),
+    );
+    opts.out = Some(dir.path().join("r.mocap"));
+    let run = mocap2d::app::track(&opts, &NoProgress).unwrap().run_dir;
+    let (seeds, _) = read_seeds(&run.join("seeds.toml")).unwrap();
+    let rows = mocap2d::run::tracks::read_tracks(&run.join("tracks.csv")).unwrap();
+    std::fs::create_dir(run.join("segments")).unwrap();
+    for (k, f) in [0u64, 10, 20].into_iter().enumerate() {
+        let joints: Vec<_> = seeds
+            .joints
+            .iter()
+            .map(|j| {
+                let r = rows
+                    .iter()
+                    .find(|r| r.frame == f && r.joint == j.name)
+                    .unwrap();
+                let mut j = j.clone();
+                (j.bbox.cx, j.bbox.cy, j.bbox.angle_rad) = (r.x, r.y, r.angle);
+                j.score = Some(r.score);
+                j.status = Some(r.status.clone());
+                j
+            })
+            .collect();
+        let text = to_toml(f, &joints, &format!("segment {k}\nframes {f}.."));
+        std::fs::write(run.join(format!("segments/{k:03}.toml")), text).unwrap();
+    }
+    (dir, run)
+}
+
+/// A server on a free port; stopped when dropped.
+struct Served {
+    addr: SocketAddr,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Served {
+    fn start(run: &Path) -> Served {
+        let stop = Arc::new(AtomicBool::new(false));
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (run, s) = (run.to_owned(), stop.clone());
+        let thread = std::thread::spawn(move || {
+            mocap2d::app::serve(&run, None, 0, &s, |a| tx.send(a).unwrap()).unwrap();
+        });
+        let addr = rx.recv().unwrap();
+        Served {
+            addr,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    /// Sends one request (HTTP/1.0, so the reply is never chunked) with a JSON body and returns
+    /// status and body.
+    fn raw(&self, method: &str, target: &str, host: &str, body: &[u8]) -> (u16, Vec<u8>) {
+        self.raw_with(
+            method,
+            target,
+            &format!("Host: {host}\r\nContent-Type: application/json"),
+            body,
+        )
+    }
+
+    /// As [`Served::raw`] with the given header lines (`\r\n`-separated).
+    fn raw_with(&self, method: &str, target: &str, headers: &str, body: &[u8]) -> (u16, Vec<u8>) {
+        let mut s = TcpStream::connect(self.addr).unwrap();
+        let head = format!(
+            "{method} {target} HTTP/1.0\r\n{headers}\r\nConnection: close\r\n\
+             Content-Length: {}\r\n\r\n",
+            body.len()
+        );
+        s.write_all(head.as_bytes()).unwrap();
+        let _ = s.write_all(body); // the server may stop reading an oversized body
+        let mut out = Vec::new();
+        let _ = s.read_to_end(&mut out);
+        let text_end = out
+            .windows(4)
+            .position(|w| w == b"\r\n\r\n")
+            .expect("a response");
+        let status_line = String::from_utf8_lossy(&out[..text_end]).into_owned();
+        let status: u16 = status_line.split(' ').nth(1).unwrap().parse().unwrap();
+        (status, out[text_end + 4..].to_vec())
+    }
+
+    fn req(&self, method: &str, target: &str, body: &[u8]) -> (u16, Vec<u8>) {
+        self.raw(
+            method,
+            target,
+            &format!("127.0.0.1:{}", self.addr.port()),
+            body,
+        )
+    }
+
+    fn json(&self, method: &str, target: &str, body: &[u8]) -> (u16, serde_json::Value) {
+        let (st, b) = self.req(method, target, body);
+        (
+            st,
+            serde_json::from_slice(&b)
+                .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&b))),
+        )
+    }
+}
+
+impl Drop for Served {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+#[test]
+fn page_api_and_save() {
+    let (_dir, run) = run_with_segments();
+    let srv = Served::start(&run);
+    assert!(srv.addr.ip().is_loopback());
+
+    let (st, page) = srv.req("GET", "/", b"");
+    assert_eq!(st, 200);
+    assert!(String::from_utf8_lossy(&page).contains("Resume from here"));
+    assert_eq!(srv.req("GET", "/app.js", b"").0, 200);
+    assert_eq!(srv.req("GET", "/style.css?v=1", b"").0, 200);
+
+    let (st, info) = srv.json("GET", "/api/run", b"");
+    assert_eq!(st, 200);
+    assert_eq!(info["width"], 320);
+    let segs = info["segments"].as_array().unwrap();
+    assert_eq!(segs.len(), 3);
+    assert_eq!(
+        (
+            segs[1]["id"].as_str(),
+            segs[1]["frame"].as_u64(),
+            segs[1]["end"].as_u64()
+        ),
+        (Some("001"), Some(10), Some(20))
+    );
+    assert_eq!(info["resume"], false);
+
+    // The first frame of segment 001 is frame 10 of the clip, pixel for pixel.
+    let (st, png) = srv.req("GET", "/api/segments/001/frame.png", b"");
+    assert_eq!(st, 200);
+    let img = image::load_from_memory(&png).unwrap().to_rgb8();
+    let clip = mocap2d::decode::read_all(&run.parent().unwrap().join("clip.mp4"), None).unwrap();
+    assert!(img == clip[10]);
+
+    let (st, seg) = srv.json("GET", "/api/segments/001", b"");
+    assert_eq!(st, 200);
+    assert_eq!(seg["frame"], 10);
+    let mut joints: Vec<serde_json::Value> = seg["joints"].as_array().unwrap().clone();
+    assert_eq!(joints.len(), 14);
+    let path = run.join("segments/001.toml");
+    let old_text = std::fs::read_to_string(&path).unwrap();
+    let (old, _) = read_seeds(&path).unwrap();
+
+    // Move the head by (+7.5, -3), widen it by 4 px and turn it 0.3 rad.
+    let hi = joints.iter().position(|j| j["name"] == "head").unwrap();
+    let h = &mut joints[hi];
+    h["x"] = (h["x"].as_f64().unwrap() + 7.5).into();
+    h["y"] = (h["y"].as_f64().unwrap() - 3.0).into();
+    h["w"] = (h["w"].as_u64().unwrap() + 4).into();
+    h["angle"] = 0.3.into();
+    let edits: Vec<serde_json::Value> = joints
+        .iter()
+        .map(|j| serde_json::json!({"name": j["name"], "x": j["x"], "y": j["y"], "w": j["w"], "h": j["h"], "angle": j["angle"]}))
+        .collect();
+    let body = serde_json::json!({ "joints": edits }).to_string();
+    let (st, r) = srv.json("POST", "/api/segments/001", body.as_bytes());
+    assert_eq!(st, 200, "{r}");
+    assert_eq!(r["saved"], true);
+    assert_eq!(r["previous"], "segments/history/001.001.toml");
+    let (new, new_text) = read_seeds(&path).unwrap();
+    assert!(
+        new_text.starts_with("# segment 1\n# frames 10..\n"),
+        "{new_text}"
+    );
+    assert_eq!(new.frame, 10);
+    for (a, b) in old.joints.iter().zip(&new.joints) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(a.parent, b.parent);
+        assert_eq!(a.status, b.status);
+        if a.name == "head" {
+            assert!(
+                (b.bbox.cx - a.bbox.cx - 7.5).abs() < 2e-3,
+                "{} -> {}",
+                a.bbox.cx,
+                b.bbox.cx
+            );
+            assert!((b.bbox.cy - a.bbox.cy + 3.0).abs() < 2e-3);
+            assert_eq!(b.bbox.w, a.bbox.w + 4);
+            assert_eq!(b.bbox.h, a.bbox.h);
+            assert!((b.bbox.angle_rad - 0.3).abs() < 1e-4);
+        } else {
+            assert!((a.bbox.cx - b.bbox.cx).abs() < 1e-3 && (a.bbox.cy - b.bbox.cy).abs() < 1e-3);
+            assert_eq!((a.bbox.w, a.bbox.h), (b.bbox.w, b.bbox.h));
+            assert!((a.bbox.angle_rad - b.bbox.angle_rad).abs() < 1e-4);
+        }
+    }
+    assert_eq!(
+        std::fs::read_to_string(run.join("segments/history/001.001.toml")).unwrap(),
+        old_text
+    );
+    // Saving the same again changes nothing and keeps no extra version.
+    let (st, r) = srv.json("POST", "/api/segments/001", body.as_bytes());
+    assert_eq!((st, r["saved"].as_bool()), (200, Some(false)));
+    assert!(!run.join("segments/history/001.002.toml").exists());
+
+    let (st, r) = srv.json("POST", "/api/segments/001/resume", b"");
+    assert_eq!(st, 501);
+    assert!(
+        r["error"].as_str().unwrap().contains("mocap2d resume"),
+        "{r}"
+    );
+}
+
+#[test]
+fn bad_requests_get_4xx_and_touch_nothing() {
+    let (_dir, run) = run_with_segments();
+    let srv = Served::start(&run);
+    let snapshot = |p: &Path| -> Vec<(PathBuf, Vec<u8>)> {
+        let mut v: Vec<_> = walk(p)
+            .into_iter()
+            .map(|f| {
+                let b = std::fs::read(&f).unwrap();
+                (f, b)
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = snapshot(&run);
+
+    // Paths outside the run folder, however spelt.
+    for target in [
+        "/../run.toml",
+        "/api/segments/../../run.toml",
+        "/api/segments/..%2F..%2Frun.toml",
+        "/api/segments/..%2Fseeds/frame.png",
+        "/api/segments/%2e%2e/frame.png",
+        "/api/segments/001.toml",
+        "/api/segments/001%00",
+        "/api/segments/-1",
+        "/api/segments/999",
+        "/etc/passwd",
+        "/segments/001.toml",
+    ] {
+        let (st, _) = srv.req("GET", target, b"");
+        assert!((400..500).contains(&st), "GET {target}: {st}");
+        let (st, _) = srv.req("POST", target, b"{\"joints\":[]}");
+        assert!((400..500).contains(&st), "POST {target}: {st}");
+    }
+
+    // Malformed or invalid bodies.
+    let (_, seg) = srv.json("GET", "/api/segments/002", b"");
+    let joints = seg["joints"].as_array().unwrap().clone();
+    let edits = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut v: Vec<serde_json::Value> = joints
+            .iter()
+            .map(|j| serde_json::json!({"name": j["name"], "x": j["x"], "y": j["y"], "w": j["w"], "h": j["h"], "angle": j["angle"]}))
+            .collect();
+        let mut body = serde_json::json!({ "joints": [] });
+        f(&mut v[0]);
+        body["joints"] = v.into();
+        body.to_string()
+    };
+    let bodies: Vec<(String, &str)> = vec![
+        ("not json".into(), "malformed"),
+        ("{\"joints\": 3}".into(), "malformed"),
+        ("{\"joints\": []}".into(), "missing"),
+        (edits(&|j| j["name"] = "nobody".into()), "nobody"),
+        (edits(&|j| j["w"] = 3.into()), "`w`"),
+        (edits(&|j| j["h"] = 9.5.into()), "`h`"),
+        (edits(&|j| j["x"] = (-40.0).into()), "inside"),
+        (edits(&|j| j["y"] = 1e9.into()), "inside"),
+        (edits(&|j| j["colour"] = "red".into()), "unknown field"),
+        (edits(&|j| j["x"] = "12".into()), "malformed"),
+    ];
+    for (body, expect) in &bodies {
+        let (st, r) = srv.json("POST", "/api/segments/002", body.as_bytes());
+        assert_eq!(st, 400, "{body}: {r}");
+        assert!(r["error"].as_str().unwrap().contains(expect), "{body}: {r}");
+    }
+    let big = vec![b' '; 2 << 20];
+    assert_eq!(srv.req("POST", "/api/segments/002", &big).0, 413);
+    // Wrong methods, and a Host that is not this server.
+    assert_eq!(srv.req("DELETE", "/api/segments/002", b"").0, 405);
+    assert_eq!(srv.req("PUT", "/api/run", b"").0, 405);
+    assert_eq!(srv.req("POST", "/", b"").0, 405);
+    let (st, _) = srv.raw("GET", "/api/run", "evil.example:80", b"");
+    assert_eq!(st, 403);
+    let host = format!("Host: 127.0.0.1:{}", srv.addr.port());
+    let body = edits(&|_| {});
+    // Another site's page, and a body that is not declared JSON (a cross-site form).
+    let evil = format!("{host}\r\nOrigin: http://evil.example\r\nContent-Type: application/json");
+    assert_eq!(
+        srv.raw_with("POST", "/api/segments/002", &evil, body.as_bytes())
+            .0,
+        403
+    );
+    let form = format!("{host}\r\nContent-Type: text/plain");
+    assert_eq!(
+        srv.raw_with("POST", "/api/segments/002", &form, body.as_bytes())
+            .0,
+        415
+    );
+    // The same body from the page itself is accepted (and changes nothing: same values).
+    let own = format!(
+        "{host}\r\nOrigin: http://{host_}\r\nContent-Type: application/json",
+        host_ = &host[6..]
+    );
+    let (st, r) = srv.raw_with("POST", "/api/segments/002", &own, body.as_bytes());
+    assert_eq!(st, 200, "{}", String::from_utf8_lossy(&r));
+
+    assert!(
+        snapshot(&run) == before,
+        "a bad request changed the run folder"
+    );
+    // And the server still answers.
+    assert_eq!(srv.req("GET", "/api/run", b"").0, 200);
+}
+
+fn walk(p: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(p).unwrap() {
+        let e = e.unwrap().path();
+        if e.is_dir() {
+            out.extend(walk(&e));
+        } else {
+            out.push(e);
+        }
+    }
+    out
+}
