@@ -127,8 +127,9 @@ pub fn table(outcomes: &[ClipOutcome]) -> String {
     }
     let count = |w: &str| outcomes.iter().filter(|o| o.status.word() == w).count();
     out.push_str(&format!(
-        "{} clips: {} done, {} skipped, {} failed\n",
+        "{} clip{}: {} done, {} skipped, {} failed\n",
         outcomes.len(),
+        if outcomes.len() == 1 { "" } else { "s" },
         count("done"),
         count("skipped"),
         count("failed")
