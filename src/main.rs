@@ -48,7 +48,7 @@ impl Progress for Bars {
     }
 }
 
-/// Batch progress: a bar per running clip above a total bar, in one `MultiProgress` (drawing
+/// Batch progress: a total bar above a bar per running clip, in one `MultiProgress` (drawing
 /// nothing when bars are off); a failed clip's error line is printed above the bars.
 struct BatchBars {
     multi: MultiProgress,
@@ -96,7 +96,7 @@ impl BatchProgress for BatchBars {
     }
 }
 
-/// One running clip's bar: a bar per stage, inserted above the total.
+/// One running clip's bar: a bar per stage, below the total.
 struct ClipBar<'a> {
     owner: &'a BatchBars,
     label: String,
@@ -109,11 +109,14 @@ impl Progress for ClipBar<'_> {
         let bar = match total {
             Some(n) => ProgressBar::new(n)
                 .with_style(style("{msg:>24} [{bar:30}] {pos}/{len} frames {per_sec}")),
-            None => ProgressBar::new_spinner(),
+            None => ProgressBar::new_spinner().with_style(
+                ProgressStyle::with_template("{msg:>24} {spinner}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            ),
         };
         let label: String = self.label.chars().take(14).collect();
         bar.set_message(format!("{label} {stage}"));
-        let bar = self.owner.multi.insert_before(&self.owner.total, bar);
+        let bar = self.owner.multi.add(bar);
         *self.bar.lock().unwrap_or_else(|e| e.into_inner()) = Some(bar);
     }
     fn advance(&self, n: u64) -> bool {
