@@ -39,6 +39,67 @@ pub enum Command {
     Review(ReviewArgs),
     /// Local page (http://127.0.0.1:PORT) to correct a run's segment files in the browser.
     Serve(ServeArgs),
+    /// Track many clips (optionally retarget and render them): one run folder per clip, a
+    /// summary table and batch-summary.csv; --shard splits the batch over machines.
+    Batch(BatchArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct BatchArgs {
+    /// Video files, folders of numbered frames, or folders of clips (their .mp4 .mov .mkv .avi
+    /// .webm files and sub-folders of PNG/JPEG frames).
+    #[arg(required = true, value_name = "CLIP_OR_FOLDER")]
+    pub inputs: Vec<PathBuf>,
+    /// Each clip's seed file, a path template: {dir} (the clip's folder), {stem} (its name
+    /// without extension), {name} (its file name); e.g. "{dir}/{stem}.toml".
+    #[arg(long, value_name = "TEMPLATE")]
+    pub seeds: String,
+    /// Clips processed at once; each clip's stages share the cores left [default: cores].
+    #[arg(long, short = 'j', value_name = "N",
+          value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub jobs: Option<u16>,
+    /// Process only shard INDEX of COUNT (from 1): every COUNT-th clip of the sorted list.
+    #[arg(long, value_name = "INDEX/COUNT")]
+    pub shard: Option<crate::batch::Shard>,
+    /// Write the run folders (<stem>.mocap) here instead of beside each clip.
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: Option<PathBuf>,
+    /// Summary CSV to write [default: batch-summary.csv, or batch-summary-IofN.csv
+    /// with --shard; in --out-dir if given].
+    #[arg(long, value_name = "CSV")]
+    pub summary: Option<PathBuf>,
+    /// Frame rate in frames/s (image folders: default 30; videos: overrides the stream's).
+    #[arg(long)]
+    pub fps: Option<f64>,
+    /// Do not subtract the background.
+    #[arg(long)]
+    pub no_background: bool,
+    /// Tracking parameters (TOML, keys as in run.toml's [params]) for every clip.
+    #[arg(long, value_name = "TOML")]
+    pub params: Option<PathBuf>,
+    /// Retarget every run onto this target character (RUN/retarget/, default options).
+    #[arg(long, value_name = "CHARACTER.toml")]
+    pub retarget: Option<PathBuf>,
+    /// Also render every retargeted run to RUN/render.mp4.
+    #[arg(long, requires = "retarget")]
+    pub render: bool,
+}
+
+impl BatchArgs {
+    /// The summary CSV's path (see `--summary`).
+    pub fn summary_path(&self) -> PathBuf {
+        if let Some(p) = &self.summary {
+            return p.clone();
+        }
+        let name = match self.shard {
+            Some(s) => format!("batch-summary-{}of{}.csv", s.index, s.count),
+            None => "batch-summary.csv".into(),
+        };
+        match &self.out_dir {
+            Some(d) => d.join(name),
+            None => PathBuf::from(name),
+        }
+    }
 }
 
 #[derive(Debug, clap::Args)]

@@ -10,6 +10,7 @@
 pub mod app;
 pub mod atomic;
 pub mod background;
+pub mod batch;
 pub mod character;
 pub mod cli;
 pub mod decode;

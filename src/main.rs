@@ -1,11 +1,13 @@
 //! The `mocap2d` binary: parse flags, call the library, report, exit (0 ok, 2 user error, 1 failure).
 
 use clap::Parser;
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mocap2d::app;
-use mocap2d::cli::{Cli, Command};
+use mocap2d::batch::{BatchProgress, ClipOutcome, Status};
+use mocap2d::cli::{BatchArgs, Cli, Command};
 use mocap2d::progress::Progress;
 use std::io::IsTerminal;
+use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Mutex;
 
@@ -46,12 +48,143 @@ impl Progress for Bars {
     }
 }
 
-fn run(cli: Cli) -> mocap2d::Result<()> {
+/// Batch progress: a total bar above a bar per running clip, in one `MultiProgress` (drawing
+/// nothing when bars are off); a failed clip's error line is printed above the bars.
+struct BatchBars {
+    multi: MultiProgress,
+    total: ProgressBar,
+}
+
+impl BatchBars {
+    fn new(on: bool) -> BatchBars {
+        let multi = MultiProgress::with_draw_target(match on {
+            true => ProgressDrawTarget::stderr(),
+            false => ProgressDrawTarget::hidden(),
+        });
+        let total = multi.add(ProgressBar::new(0).with_style(style(
+            "{msg:>24} [{bar:30}] {pos}/{len} clips, elapsed {elapsed}, eta {eta}",
+        )));
+        total.set_message("batch");
+        BatchBars { multi, total }
+    }
+}
+
+fn style(template: &str) -> ProgressStyle {
+    ProgressStyle::with_template(template)
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> ")
+}
+
+impl BatchProgress for BatchBars {
+    fn begin(&self, clips: usize) {
+        self.total.set_length(clips as u64);
+    }
+    fn clip_started(&self, clip: &Path) -> Box<dyn Progress + '_> {
+        let name = clip.file_name().unwrap_or(clip.as_os_str());
+        Box::new(ClipBar {
+            owner: self,
+            label: name.to_string_lossy().into_owned(),
+            bar: Mutex::new(None),
+        })
+    }
+    fn clip_finished(&self, o: &ClipOutcome) {
+        self.total.inc(1);
+        if let Status::Failed { message, .. } = &o.status {
+            self.multi
+                .suspend(|| eprintln!("mocap2d: {}: {message}", o.clip.display()));
+        }
+    }
+}
+
+/// One running clip's bar: a bar per stage, below the total.
+struct ClipBar<'a> {
+    owner: &'a BatchBars,
+    label: String,
+    bar: Mutex<Option<ProgressBar>>,
+}
+
+impl Progress for ClipBar<'_> {
+    fn start(&self, stage: &str, total: Option<u64>) {
+        self.finish();
+        let bar = match total {
+            Some(n) => ProgressBar::new(n)
+                .with_style(style("{msg:>24} [{bar:30}] {pos}/{len} frames {per_sec}")),
+            None => ProgressBar::new_spinner().with_style(
+                ProgressStyle::with_template("{msg:>24} {spinner}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            ),
+        };
+        let label: String = self.label.chars().take(14).collect();
+        bar.set_message(format!("{label} {stage}"));
+        let bar = self.owner.multi.add(bar);
+        *self.bar.lock().unwrap_or_else(|e| e.into_inner()) = Some(bar);
+    }
+    fn advance(&self, n: u64) -> bool {
+        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+            b.inc(n);
+        }
+        true
+    }
+    fn finish(&self) {
+        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            b.finish_and_clear();
+            self.owner.multi.remove(&b);
+        }
+    }
+}
+
+impl Drop for ClipBar<'_> {
+    fn drop(&mut self) {
+        self.finish();
+    }
+}
+
+/// `mocap2d batch`: plan, run, print the table (stdout), write the CSV; the exit code says
+/// whether any clip failed (see [`mocap2d::batch::exit_code`]).
+fn batch(a: BatchArgs, bars_on: bool) -> mocap2d::Result<ExitCode> {
+    let opts = mocap2d::batch::BatchOptions {
+        inputs: a.inputs.clone(),
+        seeds: mocap2d::batch::SeedTemplate::parse(&a.seeds)?,
+        jobs: a.jobs.map_or_else(
+            || std::thread::available_parallelism().map_or(1, |n| n.get()),
+            usize::from,
+        ),
+        shard: a.shard,
+        out_dir: a.out_dir.clone(),
+        fps: a.fps,
+        no_background: a.no_background,
+        params: mocap2d::cli::read_params(a.params.as_deref())?,
+        retarget: a.retarget.clone(),
+        render: a.render,
+    };
+    let plan = mocap2d::batch::plan(&opts)?;
+    let summary_path = a.summary_path();
+    let shard = a.shard.map(|s| format!(" (shard {s})")).unwrap_or_default();
+    eprintln!(
+        "batch: {} of {} clips{shard}, {} at a time",
+        plan.clips.len(),
+        plan.total,
+        opts.jobs.min(plan.clips.len()).max(1)
+    );
+    let bars = BatchBars::new(bars_on);
+    let outcomes = mocap2d::batch::run(&opts, &plan, &bars)?;
+    bars.total.finish_and_clear();
+    print!("{}", mocap2d::batch::summary::table(&outcomes));
+    if let Some(dir) = summary_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| mocap2d::Error::io(dir, e))?;
+    }
+    mocap2d::batch::summary::write_csv(&summary_path, &outcomes)?;
+    eprintln!("summary: {}", summary_path.display());
+    Ok(ExitCode::from(mocap2d::batch::exit_code(&outcomes)))
+}
+
+fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
     let bars = Bars {
         on: !cli.quiet && std::io::stderr().is_terminal(),
         bar: Mutex::new(None),
     };
     match cli.command {
+        Command::Batch(a) => return batch(a, bars.on),
         Command::Track(a) => {
             let (seeds, dlc) = a.seed_source();
             let opts = app::TrackOptions {
@@ -202,13 +335,13 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
             }
         }
     }
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("mocap2d: {e}");
             let mut src = std::error::Error::source(&e);

@@ -99,7 +99,7 @@ impl FfmpegSource {
         // Decoders are single-threaded unless asked; count 0 lets FFmpeg pick one per core.
         context.set_threading(threading::Config {
             kind: threading::Type::Frame,
-            count: 0,
+            count: super::decoder_threads(),
             ..Default::default()
         });
         let mut decoder = context.decoder();

@@ -26,6 +26,21 @@ pub(crate) use self::ffmpeg::{init as init_ffmpeg, Scaler};
 pub use self::images::{natural_cmp, ImageFolderSource};
 pub use self::memory::MemorySource;
 
+/// Threads each FFmpeg video decoder may use; 0 (the default) lets FFmpeg pick one per core.
+static DECODER_THREADS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// Limits every FFmpeg video decoder opened from now on to `threads` threads (0: one per core,
+/// FFmpeg's choice). `mocap2d batch` sets it so that clips decoded side by side share the cores
+/// instead of each taking all of them. Decoded frames do not depend on it.
+pub fn set_decoder_threads(threads: usize) {
+    DECODER_THREADS.store(threads, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// The thread count set by [`set_decoder_threads`].
+pub fn decoder_threads() -> usize {
+    DECODER_THREADS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Frame rate (frames per second) of an image folder when none is given.
 pub const DEFAULT_IMAGE_FPS: f64 = 30.0;
 

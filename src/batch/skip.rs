@@ -1,0 +1,68 @@
+//! Is a clip's work already done for the same inputs? A re-run of a batch (after a crash, or
+//! with more clips) skips what its run folders show finished.
+//!
+//! `track` writes `tracks.csv`, then `seeds.toml`, then `run.toml`, each atomically, so a
+//! `run.toml` beside a `tracks.csv` means the run finished; `run.toml` says with what inputs.
+//! `retarget` likewise writes `retarget.toml` last, recording the target file's and the
+//! tracks' hashes.
+
+use crate::app::{TrackOptions, RETARGET_DIR};
+use crate::run::{hash_clip, Manifest};
+use std::path::Path;
+
+/// The finished run in `run_dir`, when it was tracked by this version of mocap2d from a clip
+/// with the same content (size and blake3), a seed file with the same bytes, the same
+/// parameters, the same kind of background model (median or none) and the same frame rate,
+/// and its `tracks.csv` is there. `None` whenever any of that differs or cannot be read (the
+/// clip is then tracked again, which reports any real problem).
+pub fn finished_track(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {
+    if !run_dir.join("tracks.csv").is_file() {
+        return None;
+    }
+    let m = Manifest::read(&run_dir.join("run.toml")).ok()?;
+    let background_same = if opts.no_background {
+        m.background == "none"
+    } else {
+        opts.background.is_none() && m.background.starts_with("median:")
+    };
+    let seeds = std::fs::read(&opts.seeds).ok()?;
+    let same = m.tool == "mocap2d"
+        && m.version == env!("CARGO_PKG_VERSION")
+        && opts.dlc.is_none()
+        && background_same
+        && m.params == opts.params
+        && m.seeds_blake3 == blake3::hash(&seeds).to_hex().to_string();
+    if !same {
+        return None;
+    }
+    let (bytes, blake3) = hash_clip(&opts.clip).ok()?;
+    if bytes != m.clip.bytes || blake3 != m.clip.blake3 {
+        return None;
+    }
+    let fps = match opts.fps {
+        Some(f) => f,
+        None => crate::decode::open(&opts.clip, None).ok()?.info().fps,
+    };
+    (fps == m.fps).then_some(m)
+}
+
+/// True when `run_dir/retarget/` holds a finished retarget, by this version, onto a target
+/// file whose text hashes to `target_blake3`, from the run's current `tracks.csv`, with the
+/// default options (no smoothing, no cartoon filter), as a batch makes it.
+pub fn finished_retarget(run_dir: &Path, target_blake3: &str) -> bool {
+    let dir = run_dir.join(RETARGET_DIR);
+    if !dir.join("pose.csv").is_file() || !dir.join("bones.csv").is_file() {
+        return false;
+    }
+    let Ok(m) = crate::retarget::files::read_manifest(&dir.join("retarget.toml")) else {
+        return false;
+    };
+    let Ok(tracks) = std::fs::read(run_dir.join("tracks.csv")) else {
+        return false;
+    };
+    m.version == env!("CARGO_PKG_VERSION")
+        && m.target_blake3 == target_blake3
+        && m.tracks_blake3 == blake3::hash(&tracks).to_hex().to_string()
+        && m.smooth == "none"
+        && m.cartoon_strength == 0.0
+}

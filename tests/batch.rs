@@ -1,0 +1,242 @@
+//! `mocap2d batch` end to end with the real binary on tiny synthetic clips (160x120, 30
+//! frames): run folders, a failing clip among good ones, re-runs skipping finished clips,
+//! output independent of --jobs, and shards covering the batch once.
+#![cfg(feature = "ffmpeg")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A temp dir holding `shots/cN.mp4` with `shots/cN.toml` seed files.
+struct Shots {
+    tmp: tempfile::TempDir,
+}
+
+impl Shots {
+    /// `good` synthetic walks with their seed files, from different motion seeds.
+    fn new(good: u64) -> Shots {
+        let tmp = tempfile::tempdir().unwrap();
+        let shots = tmp.path().join("shots");
+        std::fs::create_dir(&shots).unwrap();
+        let s = Shots { tmp };
+        for i in 1..=good {
+            let out = format!("synth{i}");
+            let o = s.run(&[
+                "synth",
+                "walk",
+                "--size",
+                "160x120",
+                "--frames",
+                "30",
+                "--seed",
+                &i.to_string(),
+                "--out",
+                &out,
+            ]);
+            assert_exit(&o, 0);
+            let from = s.path(&out);
+            std::fs::rename(from.join("clip.mp4"), shots.join(format!("c{i}.mp4"))).unwrap();
+            std::fs::rename(from.join("joints.toml"), shots.join(format!("c{i}.toml"))).unwrap();
+        }
+        s
+    }
+
+    fn path(&self, rel: &str) -> PathBuf {
+        self.tmp.path().join(rel)
+    }
+
+    /// Runs `mocap2d ARGS -q` in the temp dir.
+    fn run(&self, args: &[&str]) -> Output {
+        Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+            .args(args)
+            .arg("-q")
+            .current_dir(self.tmp.path())
+            .output()
+            .unwrap()
+    }
+
+    fn batch(&self, extra: &[&str]) -> Output {
+        let mut args = vec!["batch", "shots", "--seeds", "{dir}/{stem}.toml"];
+        args.extend_from_slice(extra);
+        self.run(&args)
+    }
+}
+
+fn assert_exit(o: &Output, code: i32) {
+    assert_eq!(
+        o.status.code(),
+        Some(code),
+        "exit code; stdout:\n{}\nstderr:\n{}",
+        stdout(o),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Error lines (`mocap2d: ...`) on stderr.
+fn error_lines(o: &Output) -> Vec<String> {
+    String::from_utf8_lossy(&o.stderr)
+        .lines()
+        .filter(|l| l.starts_with("mocap2d: "))
+        .map(str::to_string)
+        .collect()
+}
+
+/// The status column of the summary table's row for `clip`.
+fn status(o: &Output, clip: &str) -> String {
+    let out = stdout(o);
+    let row = out
+        .lines()
+        .find(|l| l.starts_with(clip))
+        .unwrap_or_else(|| panic!("no row for {clip} in\n{out}"));
+    row.split_whitespace().last().unwrap().to_string()
+}
+
+/// Every file of a run folder, by relative name.
+fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read(&p).unwrap())
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn a_bad_clip_is_reported_and_the_others_go_on() {
+    let s = Shots::new(2);
+    // A "video" FFmpeg cannot read, with a good seed file: sorted between the good clips.
+    std::fs::write(s.path("shots/c1b.mp4"), b"not a video at all").unwrap();
+    std::fs::copy(s.path("shots/c1.toml"), s.path("shots/c1b.toml")).unwrap();
+    let o = s.batch(&["--jobs", "2"]);
+    assert_exit(&o, 2); // an undecodable clip is the user's to fix
+    let errors = error_lines(&o);
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert!(
+        errors[0].starts_with("mocap2d: shots/c1b.mp4: "),
+        "{errors:?}"
+    );
+    for c in ["c1", "c2"] {
+        let run = s.path(&format!("shots/{c}.mocap"));
+        let tracks = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
+        assert_eq!(
+            tracks.lines().count(),
+            1 + 30 * 14,
+            "{c}: header + 30 frames x 14 joints"
+        );
+        assert!(run.join("run.toml").is_file() && run.join("seeds.toml").is_file());
+        assert_eq!(status(&o, &format!("shots/{c}.mp4")), "done");
+    }
+    assert!(
+        !s.path("shots/c1b.mocap").exists(),
+        "a failed clip leaves no run folder"
+    );
+    assert_eq!(status(&o, "shots/c1b.mp4"), "failed");
+    // The table is sorted by clip, and the CSV says the same.
+    let rows: Vec<String> = stdout(&o)
+        .lines()
+        .skip(1)
+        .take(3)
+        .map(String::from)
+        .collect();
+    assert!(rows[0].starts_with("shots/c1.mp4") && rows[1].starts_with("shots/c1b.mp4"));
+    let csv = std::fs::read_to_string(s.path("batch-summary.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "clip,run,frames,frames_per_s,status,error");
+    assert_eq!(lines.len(), 4, "{csv}");
+    assert!(
+        lines[2].starts_with("shots/c1b.mp4,shots/c1b.mocap,,,failed,"),
+        "{csv}"
+    );
+    assert!(
+        lines[3].starts_with("shots/c2.mp4,shots/c2.mocap,30,"),
+        "{csv}"
+    );
+    assert!(!s.path("batch-summary.csv.tmp").exists());
+}
+
+#[test]
+fn a_rerun_skips_finished_clips_and_redoes_changed_ones() {
+    let s = Shots::new(2);
+    assert_exit(&s.batch(&["--jobs", "1"]), 0);
+    let before = files(&s.path("shots/c1.mocap"));
+    // Same inputs: nothing runs. An edited seed file (other bytes): tracked again.
+    let seeds = s.path("shots/c2.toml");
+    let text = std::fs::read_to_string(&seeds).unwrap();
+    std::fs::write(&seeds, format!("# checked by hand\n{text}")).unwrap();
+    let o = s.batch(&["--jobs", "1"]);
+    assert_exit(&o, 0);
+    assert_eq!(status(&o, "shots/c1.mp4"), "skipped");
+    assert_eq!(status(&o, "shots/c2.mp4"), "done");
+    assert_eq!(files(&s.path("shots/c1.mocap")), before);
+    let seeds_in_run = std::fs::read(s.path("shots/c2.mocap/seeds.toml")).unwrap();
+    assert_eq!(seeds_in_run, std::fs::read(&seeds).unwrap());
+    // A run folder without its tracks is not finished.
+    std::fs::remove_file(s.path("shots/c1.mocap/tracks.csv")).unwrap();
+    let o = s.batch(&[]);
+    assert_eq!(status(&o, "shots/c1.mp4"), "done");
+    assert_eq!(status(&o, "shots/c2.mp4"), "skipped");
+    assert_eq!(files(&s.path("shots/c1.mocap")), before);
+}
+
+#[test]
+fn jobs_do_not_change_the_output_and_shards_split_the_batch() {
+    let s = Shots::new(3);
+    assert_exit(&s.batch(&["--jobs", "1", "--out-dir", "one"]), 0);
+    assert_exit(&s.batch(&["--jobs", "2", "--out-dir", "two"]), 0);
+    for c in ["c1", "c2", "c3"] {
+        let run = |d: &str| files(&s.path(&format!("{d}/{c}.mocap")));
+        assert_eq!(run("one"), run("two"), "{c}: --jobs 1 and --jobs 2 differ");
+    }
+    // Shards 1/2 and 2/2 track every clip once between them: c1, c3 and c2.
+    let a = s.batch(&["--shard", "1/2", "--out-dir", "sharded"]);
+    let b = s.batch(&["--shard", "2/2", "--out-dir", "sharded"]);
+    assert_exit(&a, 0);
+    assert_exit(&b, 0);
+    assert_eq!(status(&a, "shots/c1.mp4"), "done");
+    assert_eq!(status(&a, "shots/c3.mp4"), "done");
+    assert_eq!(status(&b, "shots/c2.mp4"), "done");
+    assert!(!stdout(&a).contains("c2.mp4") && !stdout(&b).contains("c1.mp4"));
+    for c in ["c1", "c2", "c3"] {
+        let run = |d: &str| files(&s.path(&format!("{d}/{c}.mocap")));
+        assert_eq!(run("one"), run("sharded"), "{c}");
+    }
+    assert!(s.path("sharded/batch-summary-1of2.csv").is_file());
+    assert!(s.path("sharded/batch-summary-2of2.csv").is_file());
+}
+
+#[test]
+fn batch_wide_mistakes_stop_before_any_work() {
+    let s = Shots::new(0);
+    std::fs::write(s.path("shots/a.mp4"), b"x").unwrap();
+    std::fs::write(s.path("shots/a.mov"), b"x").unwrap();
+    let seeds = ["--seeds", "{stem}.toml"];
+    for (args, says) in [
+        (vec!["--shard", "0/4", "--out-dir", "o"], "counts from 1"),
+        (vec!["--shard", "5/4", "--out-dir", "o"], "1/4 to 4/4"),
+        (
+            vec!["--out-dir", "o", "--seeds", "{stme}.toml"],
+            "unknown placeholder {stme}",
+        ),
+        (seeds.to_vec(), "would both write the run folder"),
+        (vec!["--render", "--seeds", "x"], "--retarget"),
+    ] {
+        let mut all = vec!["batch", "shots"];
+        all.extend(args.iter().copied());
+        if !all.contains(&"--seeds") {
+            all.extend(seeds);
+        }
+        let o = s.run(&all);
+        assert_exit(&o, 2);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(says), "{all:?}: {err}");
+    }
+    assert!(!s.path("shots/a.mocap").exists());
+    assert!(!s.path("batch-summary.csv").exists());
+}
