@@ -8,6 +8,7 @@ use super::solve::{self, LengthPrior, PositionPrior, Problem};
 use super::strip::{Fit, Shape, Strip, View};
 use super::tracker::Tracker;
 use crate::geom::{Point, Vector};
+use rayon::prelude::*;
 
 impl Tracker {
     /// The coarse search, parents first; each joint starts where its parent's move carries its
@@ -19,18 +20,22 @@ impl Tracker {
         let middle = &views[1.min(views.len() - 1)];
         let mut x: Vec<Point> = pred.iter().map(|q| q.pos).collect();
         let mut shift = vec![Vector::zeros(); n];
-        for &j in &self.order {
-            match self.parents[j] {
-                None => {
-                    let radius =
-                        (p.search_sigmas * pred[j].sigma).clamp(p.search_min_px, p.search_max_px);
-                    let d = self.search_root(coarse, j, &x, radius);
-                    shift[j] = d;
-                    x[j] += d;
-                }
-                Some(par) => {
-                    x[j] = pred[j].pos + shift[par];
-                    if let Some(si) = self.model.strip_of[j] {
+        // Joints at the same depth depend only on their parents: each depth is searched in
+        // parallel, and the results are written back in order (the same on any thread count).
+        for depth in &self.depths {
+            let found: Vec<Point> = depth
+                .par_iter()
+                .map(|&j| match self.parents[j] {
+                    None => {
+                        let radius = (p.search_sigmas * pred[j].sigma)
+                            .clamp(p.search_min_px, p.search_max_px);
+                        x[j] + self.search_root(coarse, j, &x, radius)
+                    }
+                    Some(par) => {
+                        let guess = pred[j].pos + shift[par];
+                        let Some(si) = self.model.strip_of[j] else {
+                            return guess;
+                        };
                         // The bones below, where the parent's move carries their prediction.
                         let below: Vec<(usize, Point)> = self.children[j]
                             .iter()
@@ -38,10 +43,13 @@ impl Tracker {
                                 Some((self.model.strip_of[c]?, pred[c].pos + shift[par]))
                             })
                             .collect();
-                        x[j] = self.search_bone(middle, si, x[par], x[j], &below, &pred[j]);
+                        self.search_bone(middle, si, x[par], guess, &below, &pred[j])
                     }
-                    shift[j] = x[j] - pred[j].pos;
-                }
+                })
+                .collect();
+            for (&j, q) in depth.iter().zip(found) {
+                x[j] = q;
+                shift[j] = q - pred[j].pos;
             }
         }
         x

@@ -30,6 +30,8 @@ pub struct Tracker {
     pub(super) children: Vec<Vec<usize>>,
     /// Joints, parents before children.
     pub(super) order: Vec<usize>,
+    /// Joints by depth in the skeleton (roots first), each depth in `order`'s order.
+    pub(super) depths: Vec<Vec<usize>>,
     pub(super) model: Model,
     pub(super) joints: Vec<JointState>,
     background: Option<Background>,
@@ -117,6 +119,7 @@ impl Tracker {
             params,
             parents: sk.parents.clone(),
             children,
+            depths: depths(&sk.parents, &sk.topo_order()),
             order: sk.topo_order(),
             model,
             joints,
@@ -411,4 +414,19 @@ impl Tracker {
     pub fn strip_summaries(&self) -> Vec<String> {
         self.model.strips.iter().map(|s| s.summary()).collect()
     }
+}
+
+/// Joints grouped by depth (roots at depth 0), each group in the order of `order` (parents
+/// before children).
+fn depths(parents: &[Option<usize>], order: &[usize]) -> Vec<Vec<usize>> {
+    let mut depth = vec![0usize; parents.len()];
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for &j in order {
+        depth[j] = parents[j].map_or(0, |p| depth[p] + 1);
+        if out.len() <= depth[j] {
+            out.resize(depth[j] + 1, Vec::new());
+        }
+        out[depth[j]].push(j);
+    }
+    out
 }
