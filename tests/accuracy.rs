@@ -221,3 +221,34 @@ fn a_body_lost_for_a_while_is_found_again() {
     assert!(with >= 0.8, "with re-detection: PCK@5 {with}");
     assert!(without < 0.5, "without re-detection: PCK@5 {without}");
 }
+
+/// The same clip tracked on one thread and on two gives byte-identical tracks.
+#[test]
+fn tracks_do_not_depend_on_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let clip = render(&SynthOptions {
+        scenario: Scenario::Occlude,
+        width: 320,
+        height: 240,
+        seed: 1,
+        frames: Some(60),
+    });
+    write_clip(&clip, dir.path()).unwrap();
+    let run = |threads: usize| {
+        let out = dir.path().join(format!("run{threads}"));
+        let opts = TrackOptions {
+            out: Some(out.clone()),
+            ..TrackOptions::new(dir.path().join("clip.mp4"), dir.path().join("joints.toml"))
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| track(&opts, &NoProgress)).unwrap();
+        std::fs::read(out.join("tracks.csv")).unwrap()
+    };
+    assert!(
+        run(1) == run(2),
+        "tracks.csv differs between 1 and 2 threads"
+    );
+}
