@@ -1,4 +1,5 @@
-//! The `mocap2d` binary: parse flags, call the library, report, exit (0 ok, 2 user error, 1 failure).
+//! The `mocap2d` binary: parse flags, call the library, report, exit (0 ok, 2 user error, 1
+//! failure, 130 interrupted by Ctrl-C).
 
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -7,7 +8,32 @@ use mocap2d::cli::{Cli, Command};
 use mocap2d::progress::Progress;
 use std::io::IsTerminal;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
+
+/// Set by the first Ctrl-C (SIGINT) or SIGTERM: work stops at its next frame (see [`Bars`]).
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Exit code after an interruption: 128 + SIGINT, as shells report it.
+const EXIT_INTERRUPTED: u8 = 130;
+
+/// The first Ctrl-C asks the work to stop at its next frame and leave its output consistent;
+/// a second one exits at once (output files are written through temp files, so even then no
+/// file is left half-written under its real name).
+fn handle_interrupts() {
+    let installed = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            eprintln!("mocap2d: interrupted again; exiting now");
+            std::process::exit(EXIT_INTERRUPTED.into());
+        }
+        eprintln!(
+            "mocap2d: interrupted; stopping after the current frame (Ctrl-C again to quit now)"
+        );
+    });
+    if let Err(e) = installed {
+        eprintln!("mocap2d: warning: Ctrl-C will stop without cleaning up ({e})");
+    }
+}
 
 /// indicatif bars on stderr, one per stage.
 struct Bars {
@@ -37,7 +63,7 @@ impl Progress for Bars {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             b.inc(n);
         }
-        true
+        !STOP.load(Ordering::SeqCst)
     }
     fn finish(&self) {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
@@ -67,6 +93,12 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
             let s = app::track(&opts, &bars)?;
             if !s.note.is_empty() {
                 eprintln!("note: {}", s.note);
+            }
+            if let Some(stop) = &s.decode_stop {
+                eprintln!(
+                    "warning: {}: the clip is damaged or cut short: {stop}",
+                    opts.clip.display()
+                );
             }
             let counts: Vec<String> = s
                 .status_counts
@@ -165,8 +197,13 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    handle_interrupts();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e @ mocap2d::Error::Interrupted) => {
+            eprintln!("mocap2d: {e}");
+            ExitCode::from(EXIT_INTERRUPTED)
+        }
         Err(e) => {
             eprintln!("mocap2d: {e}");
             let mut src = std::error::Error::source(&e);

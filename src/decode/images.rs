@@ -24,6 +24,7 @@ impl ImageFolderSource {
     pub fn open(dir: &Path, fps: f64) -> Result<Self> {
         let files = list_frames(dir)?;
         let (width, height) = dimensions(&files[0])?;
+        super::check_frame_size(&files[0], width, height)?;
         for file in &files[1..] {
             let (w, h) = dimensions(file)?;
             if (w, h) != (width, height) {
@@ -43,6 +44,7 @@ impl ImageFolderSource {
             height,
             fps,
             frame_count_hint: Some(files.len() as u64),
+            stated_frames: Some(files.len() as u64),
         };
         Ok(ImageFolderSource {
             info,
