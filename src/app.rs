@@ -167,6 +167,17 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     };
     let source: Box<dyn FrameSource> = decode::open(&opts.clip, opts.fps)?;
     let info = source.info().clone();
+    let min = crate::seed::MIN_BOX_PX;
+    if info.width < min || info.height < min {
+        return Err(Error::Clip {
+            path: opts.clip.clone(),
+            msg: format!(
+                "frames are {}x{} px, smaller than the smallest joint rectangle ({min} px a side); \
+                 this clip cannot be tracked",
+                info.width, info.height
+            ),
+        });
+    }
     seeds
         .check_against_clip(&opts.seeds, info.width, info.height, info.frame_count_hint)
         .map_err(|e| match (e, &opts.dlc) {
