@@ -14,6 +14,10 @@ use std::sync::Mutex;
 /// Set by the first Ctrl-C (SIGINT) or SIGTERM: work stops at its next frame (see [`Bars`]).
 static STOP: AtomicBool = AtomicBool::new(false);
 
+/// Set once work that polls [`STOP`] has started (its first progress stage); until then a Ctrl-C
+/// exits at once (quick commands never poll, and their files are written atomically anyway).
+static POLLED: AtomicBool = AtomicBool::new(false);
+
 /// Exit code after an interruption: 128 + SIGINT, as shells report it.
 const EXIT_INTERRUPTED: u8 = 130;
 
@@ -22,8 +26,8 @@ const EXIT_INTERRUPTED: u8 = 130;
 /// file is left half-written under its real name).
 fn handle_interrupts() {
     let installed = ctrlc::set_handler(|| {
-        if STOP.swap(true, Ordering::SeqCst) {
-            eprintln!("mocap2d: interrupted again; exiting now");
+        if STOP.swap(true, Ordering::SeqCst) || !POLLED.load(Ordering::SeqCst) {
+            eprintln!("mocap2d: interrupted; exiting now");
             std::process::exit(EXIT_INTERRUPTED.into());
         }
         eprintln!(
@@ -43,6 +47,7 @@ struct Bars {
 
 impl Progress for Bars {
     fn start(&self, stage: &str, total: Option<u64>) {
+        POLLED.store(true, Ordering::SeqCst);
         if !self.on {
             return;
         }

@@ -409,16 +409,23 @@ fn long_clip(path: &Path, times: u32) {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
-/// Starts `mocap2d ARGS`, sends SIGINT after `after`, and returns its output and how long it
-/// took to exit after the signal. `None` if it finished before the signal (too fast to test).
-fn interrupt(args: &[&str], after: Duration) -> Option<(Output, Duration)> {
-    let child = bin()
+/// Starts `mocap2d ARGS`, waits until `started()` says the work is under way (a file it writes
+/// appeared), sends SIGINT, and returns its output and how long it took to exit after the signal.
+/// `None` if it finished first.
+fn interrupt(args: &[&str], started: impl Fn() -> bool) -> Option<(Output, Duration)> {
+    let mut child = bin()
         .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(after);
+    let t = Instant::now();
+    while !started() && t.elapsed() < Duration::from_secs(120) {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
     let pid = child.id().to_string();
     let sent = Instant::now();
     let killed = Command::new("kill").args(["-INT", &pid]).status().unwrap();
@@ -439,7 +446,8 @@ fn sigint_during_track_and_render_stops_promptly_and_cleanly() {
     let out = dir.path().join("long.mocap");
     let seeds = walk("joints.toml");
     let args = ["track", s(&clip), "--seeds", s(&seeds), "--out", s(&out)];
-    let (o, took) = interrupt(&args, Duration::from_millis(1500)).expect("track outlasts 1.5 s");
+    let tmp = out.join("tracks.csv.tmp");
+    let (o, took) = interrupt(&args, || tmp.exists()).expect("SIGINT while tracking");
     assert_fails(&o, 130, &["interrupted"]);
     assert!(
         took < Duration::from_secs(3),
@@ -469,7 +477,8 @@ fn sigint_during_track_and_render_stops_promptly_and_cleanly() {
         "--frames-dir",
         s(&frames),
     ];
-    let (o, took) = interrupt(&args, Duration::from_millis(1500)).expect("render outlasts 1.5 s");
+    let drawn = || std::fs::read_dir(&frames).is_ok_and(|mut d| d.next().is_some());
+    let (o, took) = interrupt(&args, drawn).expect("SIGINT while rendering");
     assert_fails(&o, 130, &["interrupted"]);
     assert!(
         took < Duration::from_secs(3),
