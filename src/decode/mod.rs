@@ -425,6 +425,42 @@ mod tests {
     }
 
     #[test]
+    fn salvage_keeps_frames_before_damage_and_records_where() {
+        let decode_err = |frame| {
+            Err(Error::Decode {
+                path: "x".into(),
+                frame,
+                msg: "bad packet".into(),
+            })
+        };
+        let ok = |i| Ok((i, RgbImage::new(2, 2)));
+        // Damage after 3 frames: those 3, then the stop at frame 3 with the decoder's reason.
+        let mut stop = None;
+        let items = vec![ok(0), ok(1), ok(2), decode_err(3), ok(4)];
+        let got: Vec<_> = salvage(items.into_iter(), Some(10), &mut stop).collect();
+        assert_eq!(got.len(), 3);
+        assert!(got.iter().all(|r| r.is_ok()));
+        let stop = stop.unwrap();
+        assert_eq!((stop.frame, stop.stated_frames), (3, Some(10)));
+        assert_eq!(stop.reason, "bad packet");
+        assert!(stop
+            .to_string()
+            .contains("decoding stopped at frame 3 of the 10"));
+        // Damage on the first frame is an error, not an empty clip.
+        let mut stop = None;
+        let got: Vec<_> = salvage(vec![decode_err(0)].into_iter(), None, &mut stop).collect();
+        assert!(matches!(got[..], [Err(Error::Decode { .. })]));
+        assert!(stop.is_none());
+        // Ending early against the stated count is recorded; ending on it is not.
+        let mut stop = None;
+        let _ = salvage(vec![ok(0), ok(1)].into_iter(), Some(5), &mut stop).count();
+        assert_eq!(stop.map(|s| s.frame), Some(2));
+        let mut stop = None;
+        let _ = salvage(vec![ok(0), ok(1)].into_iter(), Some(2), &mut stop).count();
+        assert!(stop.is_none());
+    }
+
+    #[test]
     fn missing_path_is_a_clip_error_naming_it() {
         let err = open(Path::new("/no/such/clip.mp4"), None).err().unwrap();
         assert!(matches!(err, Error::Clip { .. }));
