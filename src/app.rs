@@ -61,6 +61,8 @@ pub struct TrackSummary {
     pub status_counts: Vec<(String, u64)>,
     /// Something the user should know about the inputs (e.g. guessed parent links), or empty.
     pub note: String,
+    /// The clip is damaged or cut short: where decoding stopped (also in `run.toml`).
+    pub decode_stop: Option<decode::DecodeStop>,
 }
 
 /// The default run folder for a clip: `<stem>.mocap` beside it.
@@ -72,6 +74,14 @@ pub fn default_run_dir(clip: &Path) -> PathBuf {
     let mut name = stem;
     name.push(".mocap");
     clip.parent().unwrap_or(Path::new(".")).join(name)
+}
+
+/// [`Error::Clip`]: the clip opened but gave no frame.
+fn no_frames(clip: &Path) -> Error {
+    Error::Clip {
+        path: clip.to_owned(),
+        msg: "no frames: the clip is empty, or damaged from its first frame".into(),
+    }
 }
 
 /// Builds the background model the options ask for.
@@ -90,6 +100,9 @@ pub fn background_for(
         ));
     }
     let samples = decode::sample_frames(&opts.clip, BACKGROUND_SAMPLES)?;
+    if samples.is_empty() {
+        return Err(no_frames(&opts.clip));
+    }
     let n = samples.len();
     Ok((Some(Background::fit(&samples)?), format!("median:{n}")))
 }
@@ -154,6 +167,17 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     };
     let source: Box<dyn FrameSource> = decode::open(&opts.clip, opts.fps)?;
     let info = source.info().clone();
+    let min = crate::seed::MIN_BOX_PX;
+    if info.width < min || info.height < min {
+        return Err(Error::Clip {
+            path: opts.clip.clone(),
+            msg: format!(
+                "frames are {}x{} px, smaller than the smallest joint rectangle ({min} px a side); \
+                 this clip cannot be tracked",
+                info.width, info.height
+            ),
+        });
+    }
     seeds
         .check_against_clip(&opts.seeds, info.width, info.height, info.frame_count_hint)
         .map_err(|e| match (e, &opts.dlc) {
@@ -193,10 +217,13 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     let created_dir = !run_dir.exists();
     std::fs::create_dir_all(&run_dir).map_err(|e| Error::io(&run_dir, e))?;
     let tracks_path = run_dir.join("tracks.csv");
-    // On failure leave nothing behind: the partial tracks and a folder this run made.
+    // On failure leave nothing behind: the partial tracks, and a folder this run made with the
+    // files it wrote (a full disk can fail the last writes).
     let abandon = |e: Error| -> Error {
         let _ = std::fs::remove_file(crate::atomic::temp_path(&tracks_path));
         if created_dir {
+            let _ = std::fs::remove_file(&tracks_path);
+            let _ = std::fs::remove_file(run_dir.join("seeds.toml"));
             let _ = std::fs::remove_dir(&run_dir);
         }
         e
@@ -207,8 +234,9 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     let mut tracked = 0u64;
     progress.start("track", info.frame_count_hint);
     let rx = decode::spawn_reader(source, 8);
+    let mut decode_stop = None;
     let result = track_frames(
-        rx.into_iter(),
+        decode::salvage(rx.into_iter(), info.stated_frames, &mut decode_stop),
         &seeds,
         &opts.params,
         background,
@@ -223,6 +251,9 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     );
     progress.finish();
     let frames = result.map_err(abandon)?;
+    if frames == 0 {
+        return Err(abandon(no_frames(&opts.clip)));
+    }
     if tracked == 0 {
         return Err(abandon(Error::Seed {
             path: opts.seeds.clone(),
@@ -235,8 +266,8 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
             ),
         }));
     }
-    writer.finish()?;
-    let (bytes, blake3) = hash_clip(&opts.clip)?;
+    writer.finish().map_err(abandon)?;
+    let (bytes, blake3) = hash_clip(&opts.clip).map_err(abandon)?;
     let manifest = Manifest {
         tool: "mocap2d".into(),
         version: env!("CARGO_PKG_VERSION").into(),
@@ -255,9 +286,12 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         background: bg_desc,
         background_threshold: threshold,
         params: opts.params.clone(),
+        decode_stop: decode_stop.clone(),
     };
-    crate::atomic::write(&run_dir.join("seeds.toml"), seed_text.as_bytes())?;
-    crate::atomic::write(&run_dir.join("run.toml"), manifest.to_toml().as_bytes())?;
+    crate::atomic::write(&run_dir.join("seeds.toml"), seed_text.as_bytes()).map_err(abandon)?;
+    // Last, so a folder with run.toml is a complete run.
+    crate::atomic::write(&run_dir.join("run.toml"), manifest.to_toml().as_bytes())
+        .map_err(abandon)?;
     Ok(TrackSummary {
         run_dir,
         frames,
@@ -268,6 +302,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
             .map(|(k, v)| (k.to_string(), v))
             .collect(),
         note,
+        decode_stop,
     })
 }
 

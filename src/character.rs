@@ -107,6 +107,9 @@ struct RawJoint {
     layer: Option<i64>,
 }
 
+/// Largest character file read, in bytes (4 MiB); a wrong file is refused at once.
+pub const MAX_CHARACTER_FILE_BYTES: u64 = 4 << 20;
+
 /// Reads and checks the character file at `path`, loading its image.
 pub fn read_character(path: &Path) -> Result<Character> {
     let err = |line: Option<usize>, joint: Option<&str>, msg: String| Error::Character {
@@ -122,22 +125,57 @@ pub fn read_character(path: &Path) -> Result<Character> {
             "is a folder; give the character's .toml file".into(),
         ));
     }
-    let text = std::fs::read_to_string(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => err(
+    let bytes = crate::seed::read_capped(path, MAX_CHARACTER_FILE_BYTES)
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => err(
+                None,
+                None,
+                "character file not found; see configs/characters/ for examples".into(),
+            ),
+            _ => Error::io(path, e),
+        })?
+        .ok_or_else(|| {
+            err(
+                None,
+                None,
+                format!(
+                    "larger than {} MiB, the limit for a character file; is this the right file?",
+                    MAX_CHARACTER_FILE_BYTES >> 20
+                ),
+            )
+        })?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        err(
+            Some(line),
             None,
-            None,
-            "character file not found; see configs/characters/ for examples".into(),
-        ),
-        std::io::ErrorKind::InvalidData => err(None, None, "not UTF-8 text".into()),
-        _ => Error::io(path, e),
+            format!("not valid UTF-8 text (byte {at}); save the character file as UTF-8"),
+        )
     })?;
-    let raw: RawCharacter = toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    parse_character(&text, path)
+}
+
+/// Parses and checks character-file `text` as if read from `path`: the image and a background
+/// image are looked for beside `path`, and loaded.
+pub fn parse_character(text: &str, path: &Path) -> Result<Character> {
+    let err = |line: Option<usize>, joint: Option<&str>, msg: String| Error::Character {
+        path: path.to_owned(),
+        line,
+        joint: joint.map(str::to_owned),
+        msg,
+    };
+    let raw: RawCharacter = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| {
+            text.as_bytes()[..s.start.min(text.len())]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1
+        });
         err(line, None, format!("{}; fix the file", e.message().trim()))
     })?;
-    let lines = joint_lines(&text);
+    let lines = joint_lines(text);
     let line_of = |i: usize| lines.get(i).copied();
     if raw.joint.is_empty() {
         return Err(err(
@@ -448,8 +486,17 @@ fn load_image(path: &Path, err: &dyn Fn(String) -> Error) -> Result<RgbaImage> {
             path.display()
         )));
     }
-    let img = image::open(path)
-        .map_err(|e| err(format!("image {}: cannot decode: {e}", path.display())))?;
+    let cannot =
+        |e: image::ImageError| err(format!("image {}: cannot decode: {e}", path.display()));
+    // The size from the header first: a huge image is refused before it is decoded.
+    let (w, h) = image::image_dimensions(path).map_err(cannot)?;
+    if w < 8 || h < 8 || w > 8192 || h > 8192 {
+        return Err(err(format!(
+            "image {} is {w}×{h} px; use 8 to 8192 px a side",
+            path.display()
+        )));
+    }
+    let img = image::open(path).map_err(cannot)?;
     if !img.color().has_alpha() {
         return Err(err(format!(
             "image {} has no alpha channel; save it as a PNG with transparency around the character",

@@ -155,6 +155,7 @@ impl VideoWriter {
         let inner = self
             .inner
             .as_mut()
+            // Cannot fail: `inner` is set by `create_with` and taken only by `finish(self)`.
             .expect("only finish() takes the encoder");
         let result = inner.write(frame);
         result.map_err(|msg| self.error(msg))
@@ -163,6 +164,7 @@ impl VideoWriter {
     /// Flushes the encoder, completes the file and renames it into place. A video needs at least
     /// one frame.
     pub fn finish(mut self) -> Result<()> {
+        // Cannot fail: `inner` is set by `create_with` and taken only here, consuming self.
         let mut inner = self.inner.take().expect("only finish() takes the encoder");
         let result = (|| {
             if inner.frames == 0 {

@@ -60,8 +60,8 @@ pub enum Error {
     #[error("{}: {msg}", path.display())]
     Encode { path: PathBuf, msg: String },
 
-    /// The work was interrupted (Ctrl-C); what was finished is on disk.
-    #[error("interrupted; the run folder is consistent: `mocap2d resume` carries on")]
+    /// The work was interrupted (Ctrl-C, SIGTERM); no file was left half-written.
+    #[error("interrupted; no file was left half-written")]
     Interrupted,
 }
 

@@ -1,4 +1,5 @@
-//! The `mocap2d` binary: parse flags, call the library, report, exit (0 ok, 2 user error, 1 failure).
+//! The `mocap2d` binary: parse flags, call the library, report, exit (0 ok, 2 user error, 1
+//! failure, 130 interrupted by Ctrl-C).
 
 use clap::Parser;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -9,7 +10,36 @@ use mocap2d::progress::Progress;
 use std::io::IsTerminal;
 use std::path::Path;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
+
+/// Set by the first Ctrl-C (SIGINT) or SIGTERM: work stops at its next frame (see [`Bars`]).
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Set once work that polls [`STOP`] has started (its first progress stage); until then a Ctrl-C
+/// exits at once (quick commands never poll, and their files are written atomically anyway).
+static POLLED: AtomicBool = AtomicBool::new(false);
+
+/// Exit code after an interruption: 128 + SIGINT, as shells report it.
+const EXIT_INTERRUPTED: u8 = 130;
+
+/// The first Ctrl-C asks the work to stop at its next frame and leave its output consistent;
+/// a second one exits at once (output files are written through temp files, so even then no
+/// file is left half-written under its real name).
+fn handle_interrupts() {
+    let installed = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) || !POLLED.load(Ordering::SeqCst) {
+            eprintln!("mocap2d: interrupted; exiting now");
+            std::process::exit(EXIT_INTERRUPTED.into());
+        }
+        eprintln!(
+            "mocap2d: interrupted; stopping after the current frame (Ctrl-C again to quit now)"
+        );
+    });
+    if let Err(e) = installed {
+        eprintln!("mocap2d: warning: Ctrl-C will stop without cleaning up ({e})");
+    }
+}
 
 /// indicatif bars on stderr, one per stage.
 struct Bars {
@@ -19,6 +49,7 @@ struct Bars {
 
 impl Progress for Bars {
     fn start(&self, stage: &str, total: Option<u64>) {
+        POLLED.store(true, Ordering::SeqCst);
         if !self.on {
             return;
         }
@@ -39,7 +70,7 @@ impl Progress for Bars {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             b.inc(n);
         }
-        true
+        !STOP.load(Ordering::SeqCst)
     }
     fn finish(&self) {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
@@ -201,6 +232,12 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             if !s.note.is_empty() {
                 eprintln!("note: {}", s.note);
             }
+            if let Some(stop) = &s.decode_stop {
+                eprintln!(
+                    "warning: {}: the clip is damaged or cut short: {stop}",
+                    opts.clip.display()
+                );
+            }
             let counts: Vec<String> = s
                 .status_counts
                 .iter()
@@ -340,8 +377,13 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    handle_interrupts();
     match run(cli) {
         Ok(code) => code,
+        Err(e @ mocap2d::Error::Interrupted) => {
+            eprintln!("mocap2d: {e}");
+            ExitCode::from(EXIT_INTERRUPTED)
+        }
         Err(e) => {
             eprintln!("mocap2d: {e}");
             let mut src = std::error::Error::source(&e);

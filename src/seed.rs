@@ -146,6 +146,21 @@ impl Seeds {
     }
 }
 
+/// Largest seed file read, in bytes (4 MiB): far above any real one (10 000 joints take about
+/// 1 MiB), so a wrong file (a video, a log) is refused at once instead of parsed.
+pub const MAX_SEED_FILE_BYTES: u64 = 4 << 20;
+
+/// The bytes of the file at `path`, or `None` if it holds more than `max` bytes. Reads at most
+/// `max + 1` bytes, so a huge file, a device or a pipe is not read to its end.
+pub(crate) fn read_capped(path: &Path, max: u64) -> std::io::Result<Option<Vec<u8>>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(max + 1)
+        .read_to_end(&mut bytes)?;
+    Ok((bytes.len() as u64 <= max).then_some(bytes))
+}
+
 /// Reads and parses the seed file at `path` (see [`parse_seeds`]), returning the seeds and the
 /// file's verbatim text. A missing file or one that is not UTF-8 is an [`Error::Seed`]; other
 /// read failures are [`Error::Io`].
@@ -162,7 +177,7 @@ pub fn read_seeds(path: &Path) -> Result<(Seeds, String)> {
             "is a directory, not a seed file; give the path of the seed .toml file".into(),
         ));
     }
-    let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+    let bytes = read_capped(path, MAX_SEED_FILE_BYTES).map_err(|e| match e.kind() {
         std::io::ErrorKind::NotFound => seed_err(
             None,
             "seed file not found; check the path, or write one with a [[joint]] table \
@@ -171,6 +186,16 @@ pub fn read_seeds(path: &Path) -> Result<(Seeds, String)> {
         ),
         _ => Error::io(path, e),
     })?;
+    let Some(bytes) = bytes else {
+        return Err(seed_err(
+            None,
+            format!(
+                "larger than {} MiB, the limit for a seed file (10 000 joints take about 1 MiB); \
+                 is this the right file?",
+                MAX_SEED_FILE_BYTES >> 20
+            ),
+        ));
+    };
     let text = String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let line = line_of_offset(e.as_bytes(), at);
@@ -188,7 +213,12 @@ pub fn read_seeds(path: &Path) -> Result<(Seeds, String)> {
 /// joint. `path` is used in messages only. Checks against the clip are
 /// [`Seeds::check_against_clip`].
 pub fn parse_seeds(text: &str, path: &Path) -> Result<Seeds> {
-    Parser { text, path }.parse()
+    Parser {
+        text,
+        path,
+        newlines: text.match_indices('\n').map(|(i, _)| i).collect(),
+    }
+    .parse()
 }
 
 /// Renders seeds in the seed-file format, for segment files: `header_comment` as `#` lines, then
@@ -337,11 +367,15 @@ struct RawJoint {
 struct Parser<'t> {
     text: &'t str,
     path: &'t Path,
+    /// Byte offsets of the text's line breaks, so a line number is a binary search (a file of
+    /// 10 000 joints asks for tens of thousands).
+    newlines: Vec<usize>,
 }
 
 impl<'t> Parser<'t> {
+    /// 1-based line holding byte `offset` of the text.
     fn line(&self, offset: usize) -> usize {
-        line_of_offset(self.text.as_bytes(), offset)
+        self.newlines.partition_point(|&nl| nl < offset) + 1
     }
 
     fn err(&self, line: Option<usize>, joint: Option<&str>, msg: impl Into<String>) -> Error {
@@ -453,8 +487,9 @@ impl<'t> Parser<'t> {
             return self.err(None, None, format!("invalid TOML: {}", e.message()));
         };
         let line = self.line(span.start);
-        let line_start = self.text[..span.start.min(self.text.len())]
-            .rfind('\n')
+        let line_start = self.text.as_bytes()[..span.start.min(self.text.len())]
+            .iter()
+            .rposition(|&b| b == b'\n')
             .map_or(0, |i| i + 1);
         let column = self
             .text
@@ -601,6 +636,7 @@ impl<'t> Parser<'t> {
                 ));
             }
         }
+        // Cannot fail: every required key was checked present just above.
         let required = |key: &str| get(key).expect("checked above");
 
         let coord = |key: &str| -> Result<f32> {

@@ -159,6 +159,7 @@ impl Skeleton {
                 match state[j] {
                     2 => break,
                     1 => {
+                        // Cannot fail: state 1 means `j` is on the current walk, i.e. in `path`.
                         let at = path.iter().position(|&p| p == j).expect("on the walk");
                         let mut cycle = path[at..].to_vec();
                         let first = (0..cycle.len()).min_by_key(|&k| cycle[k]).unwrap_or(0);

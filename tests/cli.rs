@@ -478,11 +478,12 @@ fn bad_flags_exit_2() {
 }
 
 #[test]
-fn failure_mid_clip_leaves_no_run_folder() {
+fn damage_mid_clip_keeps_the_frames_before_it() {
     let d = Dir::new();
     write_frames(&d.path("frames"));
     // Frame 30 keeps a valid PNG header (the folder opens fine) but loses its pixel data, so
-    // decoding fails there, after tracking has begun and the run folder exists.
+    // decoding fails there, after tracking has begun: frames 0..29 are tracked, with a warning
+    // naming the file, and run.toml records where decoding stopped.
     let f30 = d.path("frames/frame0030.png");
     let bytes = std::fs::read(&f30).unwrap();
     std::fs::write(&f30, &bytes[..100]).unwrap();
@@ -497,10 +498,15 @@ fn failure_mid_clip_leaves_no_run_folder() {
         "--background",
         s(&plate),
     ]);
-    assert_ne!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stderr(&o).contains("frame0030.png"), "{}", stderr(&o));
+    assert_exit(&o, 0);
+    let err = stderr(&o);
     assert!(
-        !d.path("broken.mocap").exists(),
-        "a failed run left its folder behind"
+        err.contains("warning")
+            && err.contains("frame0030.png")
+            && err.contains("stopped at frame 29"),
+        "{err}"
     );
+    let m = mocap2d::run::Manifest::read(&d.path("broken.mocap/run.toml")).unwrap();
+    assert_eq!(m.frames, 29);
+    assert_eq!(m.decode_stop.map(|s| s.frame), Some(29));
 }

@@ -327,6 +327,7 @@ fn to_rgb(img: &RgbaImage) -> RgbImage {
     for p in img.as_raw().chunks_exact(4) {
         out.extend_from_slice(&p[..3]);
     }
+    // Cannot fail: `out` holds exactly w*h RGB pixels (one per RGBA pixel).
     RgbImage::from_raw(w, h, out).expect("sized above")
 }
 

@@ -78,6 +78,7 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
     let mut files_out: Vec<(PathBuf, String)> = Vec::new();
     let (frames, joints) = match format {
         Format::Spine => {
+            // Cannot fail: formats that need a pose loaded it above, and `--target` was required.
             let (anim, manifest) = pose.as_ref().expect("checked above");
             let target = opts.target.as_ref().expect("checked above");
             let character = read_character(target)?;
@@ -102,11 +103,13 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
             (anim.frames.len(), anim.skeleton.len())
         }
         Format::DragonBones => {
+            // Cannot fail: formats that need a pose loaded it above.
             let (anim, _) = pose.as_ref().expect("checked above");
             files_out.push((opts.out.clone(), dragonbones::to_dragonbones(anim)));
             (anim.frames.len(), anim.skeleton.len())
         }
         Format::Bvh => {
+            // Cannot fail: formats that need a pose loaded it above.
             let (anim, _) = pose.as_ref().expect("checked above");
             files_out.push((opts.out.clone(), bvh::to_bvh(anim)));
             (anim.frames.len(), anim.skeleton.len())

@@ -86,8 +86,18 @@ impl FfmpegSource {
         if !path.exists() {
             return Err(clip_err("no such file or folder".into()));
         }
-        let input = ff::format::input(path)
-            .map_err(|e| clip_err(format!("not a video FFmpeg can decode ({e})")))?;
+        let input = ff::format::input(path).map_err(|e| {
+            let empty = std::fs::metadata(path).is_ok_and(|m| m.len() == 0);
+            clip_err(if empty {
+                "the file is empty (0 bytes); give a video file or a folder of frames".into()
+            } else {
+                format!(
+                    "not a video FFmpeg can decode ({e}); if it is one, it may be cut short \
+                     (an MP4 or MOV whose index is at its end cannot be read at all when the end \
+                     is missing: copy or record it again)"
+                )
+            })
+        })?;
         let stream = input
             .streams()
             .best(ff::media::Type::Video)
@@ -114,6 +124,7 @@ impl FfmpegSource {
         if width == 0 || height == 0 {
             return Err(clip_err("the video stream states no frame size".into()));
         }
+        super::check_frame_size(path, width, height)?;
         let fps = fps.unwrap_or_else(|| stream_fps(&stream));
         let frame_count_hint = if stream.frames() > 0 {
             Some(stream.frames() as u64)
@@ -128,6 +139,7 @@ impl FfmpegSource {
             height,
             fps,
             frame_count_hint,
+            stated_frames: u64::try_from(stream.frames()).ok().filter(|&n| n > 0),
         };
         Ok(FfmpegSource {
             info,
@@ -305,7 +317,13 @@ impl FfmpegSource {
         let mut kept: Vec<(u64, ff::frame::Video)> = Vec::new();
         let mut stride = 1u64;
         let mut index = 0u64;
-        while self.decode_next()? {
+        // A clip damaged part-way is sampled from the frames before the damage (as `track`
+        // tracks those); one that decodes no frame at all is an error.
+        while match self.decode_next() {
+            Ok(more) => more,
+            Err(_) if !kept.is_empty() => false,
+            Err(e) => return Err(e),
+        } {
             if index.is_multiple_of(stride) {
                 // Take the frame; the next `receive_frame` fills a fresh one.
                 let frame = std::mem::replace(&mut self.decoded, ff::frame::Video::empty());
@@ -361,6 +379,7 @@ impl RgbConverter {
             })?;
             self.scaler = Some(Scaler(ctx));
         }
+        // Cannot fail: a scaler was made just above when none matched.
         let scaler = self.scaler.as_mut().expect("scaler set above");
         scaler
             .0
@@ -374,6 +393,7 @@ impl RgbConverter {
         for y in 0..h as usize {
             out.extend_from_slice(&data[y * stride..y * stride + row]);
         }
+        // Cannot fail: `out` holds exactly h rows of w*3 bytes.
         Ok(RgbImage::from_raw(w, h, out).expect("buffer is width*height*3"))
     }
 }

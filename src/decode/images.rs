@@ -24,6 +24,7 @@ impl ImageFolderSource {
     pub fn open(dir: &Path, fps: f64) -> Result<Self> {
         let files = list_frames(dir)?;
         let (width, height) = dimensions(&files[0])?;
+        super::check_frame_size(&files[0], width, height)?;
         for file in &files[1..] {
             let (w, h) = dimensions(file)?;
             if (w, h) != (width, height) {
@@ -43,6 +44,7 @@ impl ImageFolderSource {
             height,
             fps,
             frame_count_hint: Some(files.len() as u64),
+            stated_frames: Some(files.len() as u64),
         };
         Ok(ImageFolderSource {
             info,
@@ -72,14 +74,27 @@ impl FrameSource for ImageFolderSource {
     }
 }
 
-/// `n` frames of the folder spread evenly (all of them if it has fewer), in order.
+/// `n` frames of the folder spread evenly (all of them if it has fewer), in order. A damaged
+/// frame is left out of the sample (as `track` leaves out the frames from it on); the first
+/// error is returned only if no chosen frame could be read.
 pub(super) fn sample(dir: &Path, n: usize) -> Result<Vec<RgbImage>> {
     let source = ImageFolderSource::open(dir, super::DEFAULT_IMAGE_FPS)?;
     let size = (source.info.width, source.info.height);
-    spread_indices(source.files.len(), n)
-        .into_iter()
-        .map(|i| read_frame(&source.files[i], i as u64, size))
-        .collect()
+    let mut frames = Vec::new();
+    let mut first_error = None;
+    for i in spread_indices(source.files.len(), n) {
+        match read_frame(&source.files[i], i as u64, size) {
+            Ok(f) => frames.push(f),
+            Err(e @ Error::Decode { .. }) => {
+                first_error.get_or_insert(e);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    match first_error {
+        Some(e) if frames.is_empty() => Err(e),
+        _ => Ok(frames),
+    }
 }
 
 /// Reads frame `index` from `file` as RGB, checking it is `size` (width, height) px.
@@ -88,7 +103,10 @@ fn read_frame(file: &Path, index: u64, size: (u32, u32)) -> Result<RgbImage> {
         .map_err(|e| Error::Decode {
             path: file.to_owned(),
             frame: index,
-            msg: format!("cannot read the image: {e}"),
+            msg: format!(
+                "cannot read the image {}: {e}",
+                file.file_name().unwrap_or_default().to_string_lossy()
+            ),
         })?
         .into_rgb8();
     if img.dimensions() != size {

@@ -36,6 +36,7 @@ impl MemorySource {
             height,
             fps,
             frame_count_hint: Some(frames.len() as u64),
+            stated_frames: Some(frames.len() as u64),
         };
         MemorySource {
             info,

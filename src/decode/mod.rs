@@ -58,6 +58,130 @@ pub struct ClipInfo {
     /// Number of frames if the container states it (or, failing that, duration × fps). Only a
     /// hint for progress bars: the real count is how many frames the source yields.
     pub frame_count_hint: Option<u64>,
+    /// Number of frames the file states exactly (the container's count, an image folder's
+    /// files), `None` when unstated or only estimated. Fewer decoded frames mean a file cut short.
+    pub stated_frames: Option<u64>,
+}
+
+/// Largest frame accepted, in px (width × height): 8K UHD, 7680 × 4320 (about 100 MB a frame
+/// as RGB). Checked from the stream header or the first image's header, before any frame is
+/// decoded, so a huge or corrupt size is refused instead of exhausting memory.
+pub const MAX_FRAME_PIXELS: u64 = 7680 * 4320;
+/// Largest frame width or height accepted, in px.
+pub const MAX_FRAME_SIDE: u32 = 16384;
+
+/// [`Error::Clip`] for a frame size above [`MAX_FRAME_PIXELS`] or [`MAX_FRAME_SIDE`].
+pub(crate) fn check_frame_size(path: &Path, width: u32, height: u32) -> Result<()> {
+    if width > MAX_FRAME_SIDE
+        || height > MAX_FRAME_SIDE
+        || u64::from(width) * u64::from(height) > MAX_FRAME_PIXELS
+    {
+        return Err(Error::Clip {
+            path: path.to_owned(),
+            msg: format!(
+                "frames are {width}x{height} px, above the limit of {MAX_FRAME_PIXELS} px \
+                 (7680x4320) and {MAX_FRAME_SIDE} px a side; scale the clip down first \
+                 (e.g. ffmpeg -i IN -vf scale=1920:-2 OUT)"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Where decoding stopped before the end of a damaged or cut-short clip: `track` keeps the
+/// frames before it and records this in `run.toml` (`[decode_stop]`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DecodeStop {
+    /// The first frame (0-based) that could not be decoded: frames `0..frame` were tracked.
+    pub frame: u64,
+    /// Frames the file states it has, if it does.
+    pub stated_frames: Option<u64>,
+    /// Why decoding stopped (the decoder's error, or "the file ends early").
+    pub reason: String,
+}
+
+impl std::fmt::Display for DecodeStop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "decoding stopped at frame {}", self.frame)?;
+        if let Some(n) = self.stated_frames {
+            write!(f, " of the {n} the file states")?;
+        }
+        write!(
+            f,
+            " ({}); only frames 0..{} were used",
+            self.reason, self.frame
+        )
+    }
+}
+
+/// Passes frames through and ends at the first decode error once a frame has decoded, recording
+/// where in `stop` (a clip damaged or cut short part-way keeps the frames before the damage). At
+/// the end, fewer frames than `stated` (see [`ClipInfo::stated_frames`]) is recorded too. An error
+/// on the very first frame, or any other error, passes through.
+pub struct Salvage<'a, I> {
+    inner: I,
+    stated: Option<u64>,
+    next: u64,
+    done: bool,
+    stop: &'a mut Option<DecodeStop>,
+}
+
+/// See [`Salvage`].
+pub fn salvage<I>(inner: I, stated: Option<u64>, stop: &mut Option<DecodeStop>) -> Salvage<'_, I>
+where
+    I: Iterator<Item = Result<(u64, RgbImage)>>,
+{
+    Salvage {
+        inner,
+        stated,
+        next: 0,
+        done: false,
+        stop,
+    }
+}
+
+impl<I> Iterator for Salvage<'_, I>
+where
+    I: Iterator<Item = Result<(u64, RgbImage)>>,
+{
+    type Item = Result<(u64, RgbImage)>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        match self.inner.next() {
+            Some(Ok((i, frame))) => {
+                self.next = i + 1;
+                Some(Ok((i, frame)))
+            }
+            Some(Err(Error::Decode { msg, .. })) if self.next > 0 => {
+                self.done = true;
+                *self.stop = Some(DecodeStop {
+                    frame: self.next,
+                    stated_frames: self.stated,
+                    reason: msg,
+                });
+                None
+            }
+            Some(Err(e)) => {
+                self.done = true;
+                Some(Err(e))
+            }
+            None => {
+                self.done = true;
+                if let Some(n) = self.stated.filter(|&n| self.next > 0 && self.next < n) {
+                    *self.stop = Some(DecodeStop {
+                        frame: self.next,
+                        stated_frames: Some(n),
+                        reason: "the file ends early; it was probably cut short".into(),
+                    });
+                }
+                None
+            }
+        }
+    }
 }
 
 /// A clip's frames, one at a time, in display order.
@@ -267,6 +391,7 @@ mod tests {
             height: 2,
             fps: 30.0,
             frame_count_hint: None,
+            stated_frames: None,
         };
         let rx = spawn_reader(Box::new(Endless(info, count.clone())), 1);
         assert_eq!(rx.recv().unwrap().unwrap().0, 0);
@@ -306,11 +431,48 @@ mod tests {
             height: 2,
             fps: 30.0,
             frame_count_hint: None,
+            stated_frames: None,
         };
         let items: Vec<_> = spawn_reader(Box::new(Failing(info, 0)), 0).iter().collect();
         assert_eq!(items.len(), 4);
         assert!(items[..3].iter().all(|r| r.is_ok()));
         assert!(matches!(items[3], Err(Error::Decode { frame: 3, .. })));
+    }
+
+    #[test]
+    fn salvage_keeps_frames_before_damage_and_records_where() {
+        let decode_err = |frame| {
+            Err(Error::Decode {
+                path: "x".into(),
+                frame,
+                msg: "bad packet".into(),
+            })
+        };
+        let ok = |i| Ok((i, RgbImage::new(2, 2)));
+        // Damage after 3 frames: those 3, then the stop at frame 3 with the decoder's reason.
+        let mut stop = None;
+        let items = vec![ok(0), ok(1), ok(2), decode_err(3), ok(4)];
+        let got: Vec<_> = salvage(items.into_iter(), Some(10), &mut stop).collect();
+        assert_eq!(got.len(), 3);
+        assert!(got.iter().all(|r| r.is_ok()));
+        let stop = stop.unwrap();
+        assert_eq!((stop.frame, stop.stated_frames), (3, Some(10)));
+        assert_eq!(stop.reason, "bad packet");
+        assert!(stop
+            .to_string()
+            .contains("decoding stopped at frame 3 of the 10"));
+        // Damage on the first frame is an error, not an empty clip.
+        let mut stop = None;
+        let got: Vec<_> = salvage(vec![decode_err(0)].into_iter(), None, &mut stop).collect();
+        assert!(matches!(got[..], [Err(Error::Decode { .. })]));
+        assert!(stop.is_none());
+        // Ending early against the stated count is recorded; ending on it is not.
+        let mut stop = None;
+        let _ = salvage(vec![ok(0), ok(1)].into_iter(), Some(5), &mut stop).count();
+        assert_eq!(stop.map(|s| s.frame), Some(2));
+        let mut stop = None;
+        let _ = salvage(vec![ok(0), ok(1)].into_iter(), Some(2), &mut stop).count();
+        assert!(stop.is_none());
     }
 
     #[test]

@@ -201,6 +201,7 @@ impl JointSolver {
                 }
             }
             ata.cholesky()
+                // Cannot fail: the mesh builder anchors every free vertex, so AᵀA is positive definite.
                 .expect("AᵀA is positive definite: every free vertex has an anchor row")
         });
         JointSolver {

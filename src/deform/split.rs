@@ -49,6 +49,7 @@ pub fn split_hinges(
         let owner = *b
             .iter()
             .min_by_key(|&&x| (std::cmp::Reverse(count(x)), depth[x], x))
+            // Cannot fail: a triangle always has three vertices.
             .expect("three vertices");
         for v in t.iter_mut() {
             if skin[*v as usize] as usize == owner {

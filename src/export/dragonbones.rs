@@ -41,6 +41,7 @@ pub fn to_dragonbones(anim: &Animation) -> String {
     let bone_of = |j: usize| series.ending_at(j);
     // Rotation (degrees, clockwise) of the bone ending at joint c relative to its parent bone.
     let local_deg = |t: usize, c: usize| -> f64 {
+        // Cannot fail: `c` is a child, so it has a parent and a bone.
         let b = bone_of(c).expect("c has a parent");
         let parent_angle = bone_of(series.bones[b].0).map_or(0.0, |f| series.angle[t][f]);
         (series.angle[t][b] - parent_angle).to_degrees()
@@ -100,6 +101,7 @@ pub fn to_dragonbones(anim: &Animation) -> String {
                 tl.insert("translateFrame".into(), Value::Array(keys));
             }
             Some(p) => {
+                // Cannot fail: this joint has a parent (this arm), so a bone ends at it.
                 let bi = bone_of(j).expect("has a parent");
                 b.insert("parent".into(), json!(names.of_joint[p]));
                 b.insert("length".into(), json!(round(series.length[0][bi], 4)));
@@ -169,6 +171,7 @@ pub fn to_dragonbones(anim: &Animation) -> String {
             "defaultActions": [{ "gotoAndPlay": NAME }],
         }],
     });
+    // Cannot fail: the document is plain JSON values (no maps with non-string keys).
     let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
     s

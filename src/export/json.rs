@@ -102,6 +102,7 @@ pub fn to_json(
         "tracks": { "joints": joints(&tracks.skeleton), "frames": track_frames },
         "pose": pose,
     });
+    // Cannot fail: the document is plain JSON values (no maps with non-string keys).
     let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
     s

@@ -186,6 +186,7 @@ impl Tracks {
                     format!(
                         "expected joint {:?} of frame {}, found {:?} of frame {}",
                         skeleton.names[k],
+                        // Cannot fail: row 0 of each frame (k == 0) pushed it.
                         frames.last().expect("pushed"),
                         r.joint,
                         r.frame

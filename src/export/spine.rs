@@ -100,6 +100,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
     // Local rotation (degrees) of the bone ending at joint c at frame t: its world angle
     // relative to its parent bone's, corrected for the parent's scale x (see the module docs).
     let local_deg = |t: usize, c: usize| -> f64 {
+        // Cannot fail: `c` is a child, so it has a parent and a bone.
         let b = bone_of(c).expect("c has a parent");
         let p = series.bones[b].0;
         match bone_of(p) {
@@ -133,6 +134,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
                 b.insert("y".into(), json!(round(p[1], 4)));
             }
             Some(p) => {
+                // Cannot fail: this joint has a parent (this arm), so a bone ends at it.
                 let bi = bone_of(j).expect("has a parent");
                 b.insert("parent".into(), json!(names.of_joint[p]));
                 b.insert("length".into(), json!(round(series.length[0][bi], 4)));
@@ -167,6 +169,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
                 tl.insert("translate".into(), Value::Array(keys));
             }
             Some(_) => {
+                // Cannot fail: this joint has a parent (this arm), so a bone ends at it.
                 let b = bone_of(j).expect("has a parent");
                 let r0 = local_deg(0, j);
                 let rotate: Vec<Value> = (0..anim.frames.len())
@@ -260,6 +263,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
         }],
         "animations": { ANIMATION: { "bones": timelines } },
     });
+    // Cannot fail: the document is plain JSON values (no maps with non-string keys).
     let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
     s

@@ -128,9 +128,11 @@ pub fn read_pose(path: &Path, names: &[String]) -> Result<(Vec<u64>, Vec<Vec<P64
                  run `mocap2d retarget` again",
                 i + 2,
                 names[k],
+                // Cannot fail: row 0 (k == 0) pushed a frame.
                 frames.last().expect("pushed")
             )));
         }
+        // Cannot fail: row 0 (k == 0) pushed a frame.
         joints.last_mut().expect("pushed").push([row.x, row.y]);
     }
     if joints.is_empty() || joints.last().is_some_and(|j| j.len() != names.len()) {
@@ -236,6 +238,7 @@ pub fn read_manifest(path: &Path) -> Result<RetargetManifest> {
 
 /// `retarget.toml` text.
 pub fn manifest_toml(m: &RetargetManifest) -> String {
+    // Cannot fail: strings, finite-or-not floats and small integers, all plain TOML values.
     let body = toml::to_string(m).expect("plain TOML values");
     format!(
         "# written by `mocap2d retarget`; `mocap2d render` checks the target against it\n{body}"

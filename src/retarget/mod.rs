@@ -218,6 +218,7 @@ pub fn motion_from_tracks(rows: &[TrackRow], skeleton: &Skeleton, path: &Path) -
             )));
         }
         seen[j] = true;
+        // Cannot fail: a frame was pushed before its first row.
         joints.last_mut().expect("pushed above")[j] = [r.x as f64, r.y as f64];
     }
     if frames.is_empty() {
@@ -226,6 +227,7 @@ pub fn motion_from_tracks(rows: &[TrackRow], skeleton: &Skeleton, path: &Path) -
     if seen.iter().any(|s| !s) {
         return Err(err(format!(
             "frame {} does not list every joint",
+            // Cannot fail: checked non-empty just above.
             frames.last().expect("non-empty")
         )));
     }

@@ -36,6 +36,10 @@ pub struct Manifest {
     pub background: String,
     pub background_threshold: u32,
     pub params: TrackParams,
+    /// Set when the clip is damaged or cut short: where decoding stopped (frames before it were
+    /// tracked). Absent for a clip that decoded to its end.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decode_stop: Option<crate::decode::DecodeStop>,
 }
 
 impl Manifest {
@@ -47,7 +51,12 @@ impl Manifest {
                 "cannot read the run manifest ({e}); is this a folder written by `mocap2d track`?"
             ),
         })?;
-        toml::from_str(&text).map_err(|e| Error::RunFolder {
+        Manifest::parse(&text, path)
+    }
+
+    /// Parses the text of `run.toml` (`path` for messages only).
+    pub fn parse(text: &str, path: &Path) -> Result<Manifest> {
+        toml::from_str(text).map_err(|e| Error::RunFolder {
             path: path.to_owned(),
             msg: format!("the run manifest is damaged or was edited: {}", e.message()),
         })
@@ -55,6 +64,8 @@ impl Manifest {
 
     /// Serialises to TOML text (deterministic).
     pub fn to_toml(&self) -> String {
+        // Cannot fail: strings, floats, and integers below i64::MAX (counts and sizes); the fuzz
+        // target `manifest` checks every manifest that parses also serialises.
         let body = toml::to_string(self).expect("manifest fields are all plain TOML values");
         format!(
             "# written by mocap2d; do not edit: later commands check the clip against it\n{body}"

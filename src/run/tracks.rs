@@ -69,25 +69,36 @@ impl TracksWriter {
         Ok(())
     }
 
-    /// Flushes, syncs and renames the file into place.
+    /// Flushes, syncs and renames the file into place. On failure (a full disk) the temp file is
+    /// removed and the error names the real file.
     pub fn finish(self) -> Result<()> {
-        let tmp = self.tmp;
-        let file = self
-            .out
-            .into_inner()
-            .map_err(|e| Error::io(&tmp, e.into_error()))?;
-        file.sync_all().map_err(|e| Error::io(&tmp, e))?;
-        std::fs::rename(&tmp, &self.path).map_err(|e| Error::io(&self.path, e))
+        let (tmp, path, out) = (self.tmp, self.path, self.out);
+        let result = (|| {
+            let file = out.into_inner().map_err(|e| e.into_error())?;
+            file.sync_all()?;
+            std::fs::rename(&tmp, &path)
+        })();
+        result.map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            Error::io(&path, e)
+        })
     }
 }
 
-/// Reads `tracks.csv`.
+/// Reads `tracks.csv` (see [`parse_tracks`]).
 pub fn read_tracks(path: &Path) -> Result<Vec<TrackRow>> {
-    let mut rdr = csv::Reader::from_path(path).map_err(|e| Error::RunFolder {
+    let bytes = std::fs::read(path).map_err(|e| Error::RunFolder {
         path: path.to_owned(),
         msg: format!("cannot read tracks: {e}"),
     })?;
-    rdr.deserialize()
+    parse_tracks(&bytes, path)
+}
+
+/// Parses the bytes of a `tracks.csv` (`path` for messages only); a row that does not fit the
+/// columns is an [`Error::RunFolder`] naming its line.
+pub fn parse_tracks(bytes: &[u8], path: &Path) -> Result<Vec<TrackRow>> {
+    csv::Reader::from_reader(bytes)
+        .deserialize()
         .enumerate()
         .map(|(i, r)| {
             r.map_err(|e| Error::RunFolder {

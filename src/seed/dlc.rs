@@ -141,6 +141,7 @@ pub fn seeds_from_dlc(path: &Path, options: &DlcSeedOptions) -> Result<(Seeds, S
         .iter()
         .enumerate()
         .map(|(j, name)| {
+            // Cannot fail: the row was chosen for having every point labelled (checked above).
             let p = row.points[j].expect("checked above");
             SeedJoint {
                 name: name.clone(),

@@ -251,11 +251,15 @@ pub fn parse_dlc_csv(text: &str, path: &Path) -> Result<DlcTable> {
 fn last_number(name: &str) -> Option<u64> {
     let file = name.rsplit(['/', '\\']).next().unwrap_or(name);
     let stem = file.rsplit_once('.').map_or(file, |(s, _)| s);
-    let end = stem.rfind(|c: char| c.is_ascii_digit())? + 1;
-    let start = stem[..end]
-        .rfind(|c: char| !c.is_ascii_digit())
+    // By bytes: the digits are ASCII, so both ends fall on character boundaries even when the
+    // name holds multi-byte characters (a fuzzer found `rfind` + 1 landing inside one).
+    let bytes = stem.as_bytes();
+    let end = bytes.iter().rposition(u8::is_ascii_digit)? + 1;
+    let start = bytes[..end]
+        .iter()
+        .rposition(|b| !b.is_ascii_digit())
         .map_or(0, |i| i + 1);
-    stem[start..end].parse().ok()
+    stem.get(start..end)?.parse().ok()
 }
 
 #[cfg(test)]
@@ -307,5 +311,7 @@ pub(crate) mod tests {
         assert_eq!(last_number("img0042.png"), Some(42));
         assert_eq!(last_number("labeled-data/v2/frame_17.jpg"), Some(17));
         assert_eq!(last_number("still.png"), None);
+        assert_eq!(last_number("é֦042.png"), Some(42));
+        assert_eq!(last_number("֦042֦.png"), Some(42));
     }
 }

@@ -124,10 +124,12 @@ pub fn scene(pose: &Pose, kin: &Kinematics, joints: &[Vector], hc: f32, flat: bo
                 PARTS
                     .iter()
                     .find(|p| p.name.starts_with(n) && p.side == Some(side))
+                    // Cannot fail: PARTS is a constant table holding every name asked for.
                     .expect("part table")
             })
             .collect()
     };
+    // Cannot fail: PARTS is a constant table holding every name asked for.
     let by_name = |n: &str| PARTS.iter().find(|p| p.name == n).expect("part table");
     let arm = ["hand", "forearm", "upper_arm"];
     let leg = ["foot", "shin", "thigh"];
@@ -448,6 +450,7 @@ pub fn to_image(buf: &[Colour], width: u32, height: u32, noise: Option<Noise>) -
             }
         }
     }
+    // Cannot fail: `raw` holds exactly width*height RGB pixels.
     RgbImage::from_raw(width, height, raw).expect("buffer matches the frame size")
 }
 

@@ -1,0 +1,497 @@
+//! The run folder under stress: missing or edited files, a folder of another clip, a read-only
+//! or full disk (a small tmpfs, mounted when the test may: root in a container that allows it),
+//! a stale temp file from a crash, and Ctrl-C (SIGINT) during `track` and `render`. Every case
+//! gives a clear error (exit 2 when the user can fix it, 1 otherwise, 130 when interrupted) and
+//! leaves no half-written file and no temp file.
+#![cfg(feature = "ffmpeg")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn walk(file: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("clips/walk")
+        .join(file)
+}
+
+fn robot() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/characters/robot.toml")
+}
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().unwrap()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn assert_fails(o: &Output, code: i32, parts: &[&str]) -> String {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(code), "exit code; stderr:\n{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for p in parts {
+        assert!(err.contains(p), "message lacks {p:?}:\n{err}");
+    }
+    err
+}
+
+fn assert_ok(o: &Output) {
+    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(o));
+}
+
+/// Every file under `dir` (recursively), sorted.
+fn files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                out.extend(files(&p));
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+fn temp_files(dir: &Path) -> Vec<PathBuf> {
+    files(dir)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect()
+}
+
+/// `track` of the sample clip into `out`, then `retarget` onto the robot.
+fn tracked_and_retargeted(out: &Path) {
+    assert_ok(&run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&walk("joints.toml")),
+        "--out",
+        s(out),
+    ]));
+    assert_ok(&run(&["retarget", s(out), "--target", s(&robot())]));
+}
+
+/// A tmpfs of `size` mounted at `dir` (options `opts`, e.g. "ro"), unmounted on drop; `None`
+/// when this process may not mount (not root, or a container that forbids it).
+struct Tmpfs(PathBuf);
+
+impl Tmpfs {
+    fn mount(dir: &Path, opts: &str) -> Option<Tmpfs> {
+        std::fs::create_dir_all(dir).unwrap();
+        let ok = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", opts, "tmpfs", s(dir)])
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|st| st.success());
+        if !ok {
+            eprintln!(
+                "SKIPPED: cannot mount a tmpfs at {} (needs root)",
+                dir.display()
+            );
+        }
+        ok.then(|| Tmpfs(dir.to_owned()))
+    }
+}
+
+impl Drop for Tmpfs {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
+// ------------------------------------------------------------------- run folder
+
+#[test]
+fn missing_or_edited_run_files_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.mocap");
+    tracked_and_retargeted(&good);
+    let video = dir.path().join("robot.mp4");
+    let anim = dir.path().join("walk.json");
+    let commands = |run: &Path| -> Vec<Vec<String>> {
+        let r = s(run).to_string();
+        let t = s(&robot()).to_string();
+        vec![
+            vec!["retarget".into(), r.clone(), "--target".into(), t.clone()],
+            vec![
+                "render".into(),
+                r.clone(),
+                "--target".into(),
+                t.clone(),
+                "--out".into(),
+                s(&video).into(),
+            ],
+            vec![
+                "export".into(),
+                r,
+                "--format".into(),
+                "json".into(),
+                "--out".into(),
+                s(&anim).into(),
+            ],
+        ]
+    };
+    let copy = |name: &str| -> PathBuf {
+        let to = dir.path().join(name);
+        std::fs::create_dir_all(to.join("retarget")).unwrap();
+        for f in files(&good) {
+            let rel = f.strip_prefix(&good).unwrap();
+            std::fs::copy(&f, to.join(rel)).unwrap();
+        }
+        to
+    };
+    // Each command's manifest missing, then edited into nonsense, then with its frame size
+    // removed: `retarget` and `export` read run.toml, `render` reads retarget/retarget.toml.
+    for (manifest, which) in [("run.toml", [0, 2]), ("retarget/retarget.toml", [1, 1])] {
+        let name = manifest.replace('/', "_");
+        let missing = copy(&format!("missing_{name}"));
+        std::fs::remove_file(missing.join(manifest)).unwrap();
+        let garbage = copy(&format!("garbage_{name}"));
+        std::fs::write(garbage.join(manifest), "width = \"wide\"\n[[[\n").unwrap();
+        let edited = copy(&format!("edited_{name}"));
+        let text = std::fs::read_to_string(edited.join(manifest)).unwrap();
+        let text: String = text
+            .lines()
+            .filter(|l| !l.starts_with("width"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        std::fs::write(edited.join(manifest), text).unwrap();
+        for run_dir in [&missing, &garbage, &edited] {
+            for i in which {
+                let args = &commands(run_dir)[i];
+                let args: Vec<&str> = args.iter().map(String::as_str).collect();
+                let o = run(&args);
+                let file = manifest.rsplit('/').next().unwrap();
+                assert_fails(&o, 2, &[file]);
+                assert!(!video.exists() && !anim.exists(), "{args:?} wrote output");
+            }
+        }
+    }
+    // tracks.csv of another skeleton: refused, naming the file.
+    let other = copy("other.mocap");
+    std::fs::write(
+        other.join("tracks.csv"),
+        "frame,joint,x,y,angle,score,status\n0,tail,1,2,0,1,seed\n",
+    )
+    .unwrap();
+    let o = run(&["retarget", s(&other), "--target", s(&robot())]);
+    assert_fails(&o, 2, &["tracks.csv"]);
+    // tracks.csv cut short mid-row.
+    let cut = copy("cut.mocap");
+    let t = std::fs::read(cut.join("tracks.csv")).unwrap();
+    std::fs::write(cut.join("tracks.csv"), &t[..t.len() / 2]).unwrap();
+    let o = run(&["retarget", s(&cut), "--target", s(&robot())]);
+    assert_fails(&o, 2, &["tracks.csv"]);
+    assert!(
+        temp_files(dir.path()).is_empty(),
+        "{:?}",
+        temp_files(dir.path())
+    );
+}
+
+/// `track` into the run folder of another clip replaces every file: `run.toml` then names the new
+/// clip and the tracks are the new clip's (the old retarget is refused as stale).
+#[test]
+fn track_into_the_folder_of_another_clip_replaces_it_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.mocap");
+    tracked_and_retargeted(&out);
+    // Another clip: the sample, mirrored left to right (a different content hash).
+    let frames = dir.path().join("mirrored");
+    std::fs::create_dir(&frames).unwrap();
+    for (i, f) in mocap2d::decode::read_all(&walk("clip.mp4"), None)
+        .unwrap()
+        .iter()
+        .enumerate()
+        .take(20)
+    {
+        image::imageops::flip_horizontal(f)
+            .save(frames.join(format!("f{i:03}.png")))
+            .unwrap();
+    }
+    let seeds = mocap2d::seed::read_seeds(&walk("joints.toml")).unwrap().0;
+    let mut mirrored = seeds.joints.clone();
+    for j in &mut mirrored {
+        j.bbox.cx = 319.0 - j.bbox.cx;
+        j.bbox.angle_rad = -j.bbox.angle_rad;
+    }
+    let mseeds = dir.path().join("mirrored.toml");
+    std::fs::write(&mseeds, mocap2d::seed::to_toml(seeds.frame, &mirrored, "")).unwrap();
+    assert_ok(&run(&[
+        "track",
+        s(&frames),
+        "--seeds",
+        s(&mseeds),
+        "--out",
+        s(&out),
+    ]));
+    let m = mocap2d::run::Manifest::read(&out.join("run.toml")).unwrap();
+    assert_eq!(m.clip.path, s(&frames));
+    assert_eq!(m.frames, 20);
+    let rows = mocap2d::run::tracks::read_tracks(&out.join("tracks.csv")).unwrap();
+    assert_eq!(rows.last().unwrap().frame, 19);
+    let video = dir.path().join("v.mp4");
+    let o = run(&[
+        "render",
+        s(&out),
+        "--target",
+        s(&robot()),
+        "--out",
+        s(&video),
+    ]);
+    assert_fails(&o, 2, &["retarget"]);
+    assert!(!video.exists());
+}
+
+/// A crash leaves `NAME.tmp` files: the next write replaces them, and no reader takes one for
+/// the real file.
+#[test]
+fn stale_temp_files_are_neither_an_obstacle_nor_mistaken_for_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.mocap");
+    std::fs::create_dir(&out).unwrap();
+    for name in ["tracks.csv.tmp", "run.toml.tmp", "seeds.toml.tmp"] {
+        std::fs::write(out.join(name), "half a file from a crash,").unwrap();
+    }
+    tracked_and_retargeted(&out);
+    assert!(temp_files(&out).is_empty(), "{:?}", temp_files(&out));
+    // Only the temp file of tracks.csv is left, as after a crash mid-write: it is not read.
+    let tracks = std::fs::read(out.join("tracks.csv")).unwrap();
+    std::fs::remove_file(out.join("tracks.csv")).unwrap();
+    std::fs::write(out.join("tracks.csv.tmp"), &tracks).unwrap();
+    let o = run(&["retarget", s(&out), "--target", s(&robot())]);
+    assert_fails(&o, 2, &["tracks.csv"]);
+    let json = dir.path().join("a.json");
+    std::fs::write(crate_tmp(&json), "stale").unwrap();
+    std::fs::rename(out.join("tracks.csv.tmp"), out.join("tracks.csv")).unwrap();
+    assert_ok(&run(&[
+        "export",
+        s(&out),
+        "--format",
+        "json",
+        "--out",
+        s(&json),
+    ]));
+    assert!(!crate_tmp(&json).exists());
+    assert!(std::fs::read_to_string(&json).unwrap().starts_with('{'));
+}
+
+fn crate_tmp(p: &Path) -> PathBuf {
+    mocap2d::atomic::temp_path(p)
+}
+
+#[test]
+fn read_only_output_is_a_clear_error_with_nothing_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.mocap");
+    tracked_and_retargeted(&good);
+    let Some(ro) = Tmpfs::mount(&dir.path().join("ro"), "ro,size=1m") else {
+        return;
+    };
+    let out = ro.0.join("run.mocap");
+    let o = run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&walk("joints.toml")),
+        "--out",
+        s(&out),
+    ]);
+    assert_fails(&o, 1, &[s(&out), "Read-only file system"]);
+    let video = ro.0.join("robot.mp4");
+    let o = run(&[
+        "render",
+        s(&good),
+        "--target",
+        s(&robot()),
+        "--out",
+        s(&video),
+    ]);
+    assert_fails(&o, 1, &["robot.mp4", "Read-only file system"]);
+    let json = ro.0.join("a.json");
+    let o = run(&["export", s(&good), "--format", "json", "--out", s(&json)]);
+    assert_fails(&o, 1, &["a.json", "Read-only file system"]);
+    assert!(files(&ro.0).is_empty());
+}
+
+/// A 24 KiB disk: too small for the tracks (about 40 KB) or the video. Each command fails naming
+/// the file and "No space left", and leaves the disk as it found it.
+#[test]
+fn full_disk_is_a_clear_error_with_nothing_half_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.mocap");
+    tracked_and_retargeted(&good);
+    let Some(full) = Tmpfs::mount(&dir.path().join("full"), "size=24k") else {
+        return;
+    };
+    let out = full.0.join("run.mocap");
+    let o = run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&walk("joints.toml")),
+        "--out",
+        s(&out),
+    ]);
+    assert_fails(&o, 1, &["tracks.csv", "No space left"]);
+    assert!(files(&full.0).is_empty(), "{:?}", files(&full.0));
+    let video = full.0.join("robot.mp4");
+    let o = run(&[
+        "render",
+        s(&good),
+        "--target",
+        s(&robot()),
+        "--out",
+        s(&video),
+        "--frames-dir",
+        s(&full.0.join("frames")),
+    ]);
+    assert_fails(&o, 1, &["No space left"]);
+    assert!(files(&full.0).is_empty(), "{:?}", files(&full.0));
+    // A retarget into a run folder on the full disk: the old retarget stays whole.
+    let small = full.0.join("small.mocap");
+    std::fs::create_dir_all(&small).unwrap();
+    for f in ["run.toml", "seeds.toml"] {
+        std::fs::copy(good.join(f), small.join(f)).unwrap();
+    }
+    let tracks = std::fs::read(good.join("tracks.csv")).unwrap();
+    let short: Vec<&str> = std::str::from_utf8(&tracks)
+        .unwrap()
+        .lines()
+        .take(1 + 14 * 20)
+        .collect();
+    std::fs::write(small.join("tracks.csv"), short.join("\n") + "\n").unwrap();
+    let before = files(&small);
+    let o = run(&["retarget", s(&small), "--target", s(&robot())]);
+    if o.status.code() != Some(0) {
+        assert_fails(&o, 1, &["No space left"]);
+        let after = files(&small);
+        assert!(after
+            .iter()
+            .all(|p| before.contains(p) || p.is_file() && std::fs::metadata(p).unwrap().len() > 0));
+    }
+    assert!(temp_files(&full.0).is_empty(), "{:?}", temp_files(&full.0));
+}
+
+// ---------------------------------------------------------------------- signals
+
+/// The sample clip looped `times` times (remuxed, not re-encoded) into `path`.
+fn long_clip(path: &Path, times: u32) {
+    let o = Command::new("ffmpeg")
+        .args([
+            "-v",
+            "error",
+            "-y",
+            "-stream_loop",
+            &(times - 1).to_string(),
+            "-i",
+        ])
+        .arg(walk("clip.mp4"))
+        .args(["-c", "copy"])
+        .arg(path)
+        .output()
+        .expect("the ffmpeg command (scripts/setup installs it)");
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Starts `mocap2d ARGS`, waits until `started()` says the work is under way (a file it writes
+/// appeared), sends SIGINT, and returns its output and how long it took to exit after the signal.
+/// `None` if it finished first.
+fn interrupt(args: &[&str], started: impl Fn() -> bool) -> Option<(Output, Duration)> {
+    let mut child = bin()
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while !started() && t.elapsed() < Duration::from_secs(120) {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let pid = child.id().to_string();
+    let sent = Instant::now();
+    let killed = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+    let o = child.wait_with_output().unwrap();
+    let took = sent.elapsed();
+    if !killed.success() || o.status.code() == Some(0) {
+        eprintln!("finished before SIGINT: {}", stderr(&o));
+        return None;
+    }
+    Some((o, took))
+}
+
+#[test]
+fn sigint_during_track_and_render_stops_promptly_and_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let clip = dir.path().join("long.mp4");
+    long_clip(&clip, 10); // 600 frames
+    let out = dir.path().join("long.mocap");
+    let seeds = walk("joints.toml");
+    let args = ["track", s(&clip), "--seeds", s(&seeds), "--out", s(&out)];
+    let tmp = out.join("tracks.csv.tmp");
+    let (o, took) = interrupt(&args, || tmp.exists()).expect("SIGINT while tracking");
+    assert_fails(&o, 130, &["interrupted"]);
+    assert!(
+        took < Duration::from_secs(3),
+        "exit took {took:?} after SIGINT"
+    );
+    // Nothing half-written: the folder this run made is gone, or holds only whole files.
+    assert!(
+        temp_files(dir.path()).is_empty(),
+        "{:?}",
+        temp_files(dir.path())
+    );
+    assert!(!out.join("tracks.csv").exists() || out.join("run.toml").exists());
+
+    // Render: a full run of the long clip, then Ctrl-C mid-render.
+    assert_ok(&run(&args));
+    assert_ok(&run(&["retarget", s(&out), "--target", s(&robot())]));
+    let video = dir.path().join("robot.mp4");
+    let frames = dir.path().join("frames");
+    let target = robot();
+    let args = [
+        "render",
+        s(&out),
+        "--target",
+        s(&target),
+        "--out",
+        s(&video),
+        "--frames-dir",
+        s(&frames),
+    ];
+    let drawn = || std::fs::read_dir(&frames).is_ok_and(|mut d| d.next().is_some());
+    let (o, took) = interrupt(&args, drawn).expect("SIGINT while rendering");
+    assert_fails(&o, 130, &["interrupted"]);
+    assert!(
+        took < Duration::from_secs(3),
+        "exit took {took:?} after SIGINT"
+    );
+    assert!(!video.exists(), "a half video was left");
+    assert!(
+        !frames.exists(),
+        "frames of an interrupted render were left"
+    );
+    assert!(
+        temp_files(dir.path()).is_empty(),
+        "{:?}",
+        temp_files(dir.path())
+    );
+}
