@@ -61,20 +61,29 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
                 fps: a.fps,
                 background: a.background,
                 no_background: a.no_background,
+                segment_len: a.segment_len,
             };
             let s = app::track(&opts, &bars)?;
-            let counts: Vec<String> = s
-                .status_counts
-                .iter()
-                .map(|(k, v)| format!("{k} {v}"))
-                .collect();
-            eprintln!(
-                "tracked {} joints over {} frames -> {} ({})",
-                s.joints,
-                s.tracked_frames,
-                s.run_dir.display(),
-                counts.join(", ")
-            );
+            print_summary("tracked", &s);
+        }
+        Command::Resume(a) => {
+            let opts = app::ResumeOptions {
+                params: match &a.params {
+                    Some(p) => Some(mocap2d::cli::read_params(Some(p))?),
+                    None => None,
+                },
+                run: a.run,
+                segment: a.segment,
+                clip: a.clip,
+            };
+            match app::resume(&opts, &bars)? {
+                Some(s) => print_summary("resumed:", &s),
+                None => eprintln!(
+                    "{}: nothing to do: the run is complete and no segment file changed since it \
+                     was tracked (edit one, or give --segment K)",
+                    opts.run.display()
+                ),
+            }
         }
         Command::Synth(a) => {
             let opts = mocap2d::synth::SynthOptions {
@@ -137,6 +146,24 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Prints what `track` or `resume` did, and the report's summary (stdout).
+fn print_summary(what: &str, s: &app::TrackSummary) {
+    let counts: Vec<String> = s
+        .status_counts
+        .iter()
+        .map(|(k, v)| format!("{k} {v}"))
+        .collect();
+    eprintln!(
+        "{what} {} joints over {} frames in {} segments -> {} ({})",
+        s.joints,
+        s.tracked_frames,
+        s.segments,
+        s.run_dir.display(),
+        counts.join(", ")
+    );
+    println!("{}", s.report);
 }
 
 fn main() -> ExitCode {

@@ -1,11 +1,16 @@
 //! `run.toml`: the manifest that ties a run folder to its clip, seeds and parameters, so a later
-//! command can check it works on the same inputs.
+//! command can check it works on the same inputs, and the checkpoint of a run in progress: how
+//! many segments are tracked, and the hash of every segment file the tool wrote (a segment file
+//! with another hash was edited by the user: a correction).
 
 use crate::error::{Error, Result};
 use crate::track::TrackParams;
 use serde::{Deserialize, Serialize};
 use std::io::Read;
 use std::path::Path;
+
+/// The manifest's file name in a run folder.
+pub const RUN_TOML: &str = "run.toml";
 
 /// Identity of a clip: where it was, how big, and a content hash (blake3, hex).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -26,7 +31,7 @@ pub struct Manifest {
     pub width: u32,
     pub height: u32,
     pub fps: f64,
-    /// Frames decoded from the clip.
+    /// Frames decoded from the clip (0 until the run is complete).
     pub frames: u64,
     pub seed_frame: u64,
     pub joints: usize,
@@ -35,7 +40,34 @@ pub struct Manifest {
     /// `median:N` (temporal median of N sampled frames), `plate:PATH`, or `none`.
     pub background: String,
     pub background_threshold: u32,
+    /// Frames per segment: tracking restarts from `segments/NNN.toml` every this many frames
+    /// from the seed frame on.
+    pub segment_len: u64,
+    /// blake3 of everything the tracks depend on (see [`Manifest::config_hash`]): `resume`
+    /// carries on only with the same inputs.
+    pub config_blake3: String,
+    /// True once every segment is tracked and `tracks.csv`, `report.md` are written.
+    pub complete: bool,
+    /// Segments `0..tracked_segments` have their rows in `segments/NNN.csv` (the checkpoint).
+    pub tracked_segments: u64,
     pub params: TrackParams,
+    /// One record per segment file written so far, in order (`[[segment]]`).
+    #[serde(default)]
+    pub segment: Vec<SegmentRecord>,
+}
+
+/// What `run.toml` records about one segment (`[[segment]]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentRecord {
+    /// The segment's first frame: the `frame` of `segments/NNN.toml`.
+    pub first_frame: u64,
+    /// blake3 (hex) of the versions of `segments/NNN.toml` the tool wrote and may still be on
+    /// disk (more than one only for an instant, around a rewrite). A file whose hash is not
+    /// here was edited by the user.
+    pub written: Vec<String>,
+    /// blake3 of `segments/NNN.toml` when the segment was last tracked from it ("" if never).
+    pub tracked_from: String,
 }
 
 impl Manifest {
@@ -51,6 +83,28 @@ impl Manifest {
             path: path.to_owned(),
             msg: format!("the run manifest is damaged or was edited: {}", e.message()),
         })
+    }
+
+    /// blake3 (hex) of what the tracks depend on: tool version, clip content, seed file,
+    /// background model, segment length and every tracking parameter.
+    pub fn config_hash(&self) -> String {
+        let params = toml::to_string(&self.params).expect("parameters are plain TOML values");
+        let text = format!(
+            "version={}\nclip={}\nseeds={}\nbackground={}\nthreshold={}\nsegment_len={}\nseed_frame={}\n{params}",
+            self.version,
+            self.clip.blake3,
+            self.seeds_blake3,
+            self.background,
+            self.background_threshold,
+            self.segment_len,
+            self.seed_frame,
+        );
+        blake3::hash(text.as_bytes()).to_hex().to_string()
+    }
+
+    /// Writes the manifest to `run_dir/run.toml` atomically.
+    pub fn write(&self, run_dir: &Path) -> Result<()> {
+        crate::atomic::write(&run_dir.join(RUN_TOML), self.to_toml().as_bytes())
     }
 
     /// Serialises to TOML text (deterministic).
