@@ -204,6 +204,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         width: info.width,
         height: info.height,
         manifest: start,
+        seed_image: None,
     };
     progress.start("track", info.frame_count_hint);
     let rx = decode::spawn_reader(source, 8);
@@ -314,6 +315,24 @@ impl TrackSummary {
             flagged: done.report.ranked().iter().map(|s| s.index).collect(),
         }
     }
+}
+
+/// `mocap2d report`: the correction report of a run folder (see [`crate::run::report`]), as
+/// `report.md` holds it, recomputed from its `tracks.csv` and segment files.
+pub fn report(run_dir: &Path) -> Result<crate::run::report::Report> {
+    let manifest = Manifest::read(&run_dir.join(crate::run::manifest::RUN_TOML))?;
+    let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
+    if !manifest.complete {
+        return Err(Error::RunFolder {
+            path: run_dir.to_owned(),
+            msg: format!(
+                "the run is not complete (tracked {} segments); `mocap2d resume {}` finishes it",
+                manifest.tracked_segments,
+                run_dir.display()
+            ),
+        });
+    }
+    Ok(segmented::build_report(run_dir, &manifest, &base)?.1)
 }
 
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines

@@ -24,6 +24,8 @@ pub enum Command {
     Track(TrackArgs),
     /// Carry on a run after a crash, or re-track it from a corrected segment file.
     Resume(ResumeArgs),
+    /// Print a run's correction report (segments ranked by need of correction) as Markdown.
+    Report(ReportArgs),
     /// Render a synthetic test clip with ground truth (clip.mp4, gt.csv, joints.toml, background.png).
     Synth(SynthArgs),
     /// Compare a run's tracks with ground truth (frame,joint,x,y): median, p95, PCK@5/@10.
@@ -128,6 +130,12 @@ pub struct TrackArgs {
     #[arg(long, value_name = "N", default_value_t = crate::app::DEFAULT_SEGMENT_LEN,
           value_parser = clap::value_parser!(u64).range(1..))]
     pub segment_len: u64,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ReportArgs {
+    /// Run folder written by `mocap2d track`.
+    pub run: PathBuf,
 }
 
 #[derive(Debug, clap::Args)]

@@ -58,6 +58,7 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
         width: manifest.width,
         height: manifest.height,
         manifest,
+        seed_image: None,
     };
     // Every segment file from K on must read before anything is written.
     let count = session.manifest.segment.len() as u64;

@@ -104,9 +104,9 @@ pub struct Start {
     pub hash: String,
     /// Edited by the user: its rectangles are taken as given (status `seed`, score 1).
     pub corrected: bool,
-    /// Each joint's angle on this frame from the run's seed pose (radians): a tracker started
-    /// here measures angles from here, so this is added to them.
-    pub angle_offsets: Vec<f32>,
+    /// Each joint's angle on this frame from the run's seed pose (radians, unwrapped near the
+    /// file's `angle`).
+    pub angles: Vec<f32>,
     /// The row of `tracks.csv` on the first frame.
     pub row: Vec<JointEstimate>,
 }
@@ -175,7 +175,7 @@ impl Start {
         let corrected = !written.contains(&hash);
         let d0 = pose_dirs(base, rotate_roots);
         let d = pose_dirs(&seeds, rotate_roots);
-        let angle_offsets: Vec<f32> = seeds
+        let angles: Vec<f32> = seeds
             .joints
             .iter()
             .enumerate()
@@ -187,7 +187,7 @@ impl Start {
         let row = seeds
             .joints
             .iter()
-            .zip(&angle_offsets)
+            .zip(&angles)
             .map(|(j, &angle_rad)| {
                 let status = j.status.as_deref().and_then(parse_status);
                 let (score, status) = match (corrected, status) {
@@ -206,7 +206,7 @@ impl Start {
             seeds,
             hash,
             corrected,
-            angle_offsets,
+            angles,
             row,
         })
     }
