@@ -68,6 +68,8 @@ pub struct TrackSummary {
     pub report: String,
     /// Segments the report flags, most needy first.
     pub flagged: Vec<u64>,
+    /// Segment files the report says to correct, in order.
+    pub to_correct: Vec<u64>,
 }
 
 /// The default run folder for a clip: `<stem>.mocap` beside it.
@@ -256,7 +258,15 @@ fn prepare_new_run(
             status: Status::Seed,
         })
         .collect();
-    let first = segments::file_text(0, seeds.frame, seeds, &at_seed, info.width, info.height);
+    let first = segments::file_text(
+        0,
+        seeds.frame,
+        false,
+        seeds,
+        &at_seed,
+        info.width,
+        info.height,
+    );
     let mut manifest = Manifest {
         tool: "mocap2d".into(),
         version: env!("CARGO_PKG_VERSION").into(),
@@ -313,6 +323,7 @@ impl TrackSummary {
             segments: session.manifest.tracked_segments,
             report: done.report.summary(),
             flagged: done.report.ranked().iter().map(|s| s.index).collect(),
+            to_correct: done.report.files_to_correct(),
         }
     }
 }

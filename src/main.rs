@@ -86,12 +86,7 @@ fn run(cli: Cli) -> mocap2d::Result<()> {
             }
         }
         Command::Report(a) => {
-            let r = app::report(&a.run)?;
-            let name = a
-                .run
-                .file_name()
-                .map_or("run".into(), |n| n.to_string_lossy());
-            print!("{}", r.to_markdown(&name));
+            print!("{}", app::report(&a.run)?.to_markdown());
         }
         Command::Synth(a) => {
             let opts = mocap2d::synth::SynthOptions {

@@ -162,12 +162,22 @@ fn check_inputs(opts: &ResumeOptions, m: &Manifest, manifest_path: &Path) -> Res
 /// stopped and the first segment edited since it was tracked; `None` when nothing is to do.
 fn pick_segment(opts: &ResumeOptions, m: &Manifest, run_dir: &Path) -> Result<Option<u64>> {
     let files = m.segment.len() as u64;
+    // Segments proper; with the clip's length known, a file after them holds its last frame.
+    let plan = segments::Plan {
+        seed_frame: m.seed_frame,
+        len: m.segment_len,
+    };
+    let count = if m.frames > 0 {
+        plan.count(m.frames).min(files)
+    } else {
+        files
+    };
     if let Some(k) = opts.segment {
         if k >= files {
             let msg = if m.complete {
                 format!(
-                    "--segment {k}: the run has {files} segments (0 to {})",
-                    files.saturating_sub(1)
+                    "--segment {k}: the run has {count} segments (0 to {})",
+                    count.saturating_sub(1)
                 )
             } else {
                 format!(
@@ -178,6 +188,14 @@ fn pick_segment(opts: &ResumeOptions, m: &Manifest, run_dir: &Path) -> Result<Op
                 )
             };
             return Err(Error::Usage(msg));
+        }
+        if k >= count {
+            return Err(Error::Usage(format!(
+                "--segment {k}: segments/{k:03}.toml holds the clip's last frame, which closes \
+                 segment {}; resume from --segment {} to track back from it",
+                k - 1,
+                k - 1
+            )));
         }
         let p = segments::file_path(run_dir, k);
         if !p.exists() {
@@ -192,15 +210,20 @@ fn pick_segment(opts: &ResumeOptions, m: &Manifest, run_dir: &Path) -> Result<Op
         }
         return Ok(Some(k));
     }
+    let last = count.saturating_sub(1);
     let mut edited = None;
     for (k, rec) in m.segment.iter().enumerate() {
-        let h = hash_file(&segments::file_path(run_dir, k as u64))?;
-        if h.is_some_and(|h| h != rec.tracked_from) && (k as u64) < m.tracked_segments {
-            edited = Some(k as u64);
+        let k = k as u64;
+        if k > m.tracked_segments {
+            break;
+        }
+        let h = hash_file(&segments::file_path(run_dir, k))?;
+        if h.is_some_and(|h| h != rec.tracked_from) {
+            edited = Some(k.min(last));
             break;
         }
     }
-    let stopped = (!m.complete).then_some(m.tracked_segments.min(files.saturating_sub(1)));
+    let stopped = (!m.complete).then_some(m.tracked_segments.min(last));
     Ok(match (stopped, edited) {
         (Some(a), Some(b)) => Some(a.min(b)),
         (a, b) => a.or(b),

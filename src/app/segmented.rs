@@ -151,11 +151,20 @@ impl Session {
             .map_or(&[], |r| r.written.as_slice())
     }
 
-    /// Reads segment `k`'s file.
+    /// The frame of segment file `k`: its segment's first frame, or for the file after the
+    /// last segment, the clip's last frame (as recorded).
+    fn frame_of(&self, k: u64) -> u64 {
+        self.manifest
+            .segment
+            .get(k as usize)
+            .map_or(self.plan().first_frame(k), |r| r.first_frame)
+    }
+
+    /// Reads segment file `k`.
     pub fn start(&self, k: u64) -> Result<Start> {
         Start::read(
             &segments::file_path(&self.run_dir, k),
-            self.plan().first_frame(k),
+            self.frame_of(k),
             &self.base,
             self.width,
             self.height,
@@ -238,23 +247,29 @@ impl Session {
         let mut k = first_segment;
         loop {
             let (rows, boundary) = self.track_segment(k, &cur, &mut frames)?;
-            let next = boundary.map(|(est, frame)| {
-                cur = frame;
-                est
-            });
-            self.checkpoint(k, &rows, next.as_deref())?;
-            if next.is_none() {
-                break;
+            match boundary {
+                Some((est, frame)) => {
+                    cur = frame;
+                    self.checkpoint(k, &rows, Some((plan.first_frame(k + 1), &est, false)))?;
+                    k += 1;
+                }
+                None => {
+                    // The clip ends in segment k: its last frame is a keyframe file of its own.
+                    let (f, est) = rows.last().expect("a segment has its first frame");
+                    let end = (*f > plan.first_frame(k)).then_some((*f, est.as_slice(), true));
+                    self.checkpoint(k, &rows, end)?;
+                    break;
+                }
             }
-            k += 1;
         }
         self.finish(k + 1, frames.count)
     }
 
     /// Tracks segment `k` from its first frame `first` (already decoded) on. Returns its rows
     /// and, unless the clip ends within it, the estimate on the next segment's first frame with
-    /// that frame. When the next segment's file is a correction, the segment's frames are held
-    /// and tracked backward from it too, and the passes blended ([`super::blend`]).
+    /// that frame. When segment file `k + 1` is a correction (the next segment's first frame,
+    /// or the clip's last frame), the segment's frames are held and tracked backward from it
+    /// too, and the passes blended ([`super::blend`]).
     #[allow(clippy::type_complexity)]
     fn track_segment<I: Iterator<Item = Result<(u64, RgbImage)>>>(
         &self,
@@ -301,7 +316,15 @@ impl Session {
         let mut out = forward.swap_remove(0);
         out[0].1 = start.row.clone();
         let at_next = boundary.as_ref().map(|_| out.pop().expect("pushed").1);
-        if let (Some(end), Some(bf)) = (&end, &boundary) {
+        // A correction on the clip's last frame, inside this segment: the last frame held.
+        let tail = match (&end, &boundary) {
+            (Some(e), None) if !held.is_empty() && e.seeds.frame + 1 == frames.count => {
+                out.last_mut().expect("held frames were tracked").1 = e.row.clone();
+                held.pop()
+            }
+            _ => None,
+        };
+        if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
             let mut passes: Vec<Vec<Vec<JointEstimate>>> = Vec::new();
             let inner = |p: &[(u64, Vec<JointEstimate>)]| -> Vec<Vec<JointEstimate>> {
                 p[1..=held.len()].iter().map(|(_, e)| e.clone()).collect()
@@ -324,39 +347,61 @@ impl Session {
         Ok((out, at_next.zip(boundary)))
     }
 
-    /// Checkpoint after segment `k`: its rows, the next segment's file from `next` (unless that
-    /// file is a correction), then the manifest. The manifest learns a file's hash before the
+    /// Checkpoint after segment `k`: its rows, segment file `k + 1` from `next` (its frame, the
+    /// estimates there, and whether it is the clip's last frame rather than a segment's first)
+    /// unless that file is a correction, then the manifest. The manifest learns a file's hash before the
     /// file is written, so a crash in between never makes a tool-written file look edited.
     fn checkpoint(
         &mut self,
         k: u64,
         rows: &[(u64, Vec<JointEstimate>)],
-        next: Option<&[JointEstimate]>,
+        next: Option<(u64, &[JointEstimate], bool)>,
     ) -> Result<()> {
-        let plan = self.plan();
         segments::write_rows(&self.run_dir, k, &self.names, rows)?;
         let used = self.start(k)?.hash;
         self.manifest.segment[k as usize].tracked_from = used;
-        if let Some(est) = next {
+        if next.is_none_or(|n| n.2) {
+            // The last segment: no file after the clip's end.
+            self.manifest
+                .segment
+                .truncate(k as usize + 1 + next.is_some() as usize);
+        }
+        if let Some((first, est, last)) = next {
             let k1 = k + 1;
-            let first = plan.first_frame(k1);
-            if self.manifest.segment.len() <= k1 as usize {
-                self.manifest.segment.push(SegmentRecord {
+            match self.manifest.segment.get_mut(k1 as usize) {
+                Some(rec) if rec.first_frame == first => {}
+                Some(rec) => {
+                    *rec = SegmentRecord {
+                        first_frame: first,
+                        written: Vec::new(),
+                        tracked_from: String::new(),
+                    }
+                }
+                None => self.manifest.segment.push(SegmentRecord {
                     first_frame: first,
                     written: Vec::new(),
                     tracked_from: String::new(),
-                });
+                }),
             }
-            if self.correction(k1)?.is_none() {
-                let text = file_text(k1, first, &self.base, est, self.width, self.height);
-                let h = segments::hash_bytes(text.as_bytes());
-                let rec = &mut self.manifest.segment[k1 as usize];
-                if !rec.written.contains(&h) {
-                    rec.written.push(h.clone());
-                    self.manifest.write(&self.run_dir)?;
+            match self.correction(k1)? {
+                Some(c) if last => self.manifest.segment[k1 as usize].tracked_from = c.hash,
+                Some(_) => {}
+                None => {
+                    let text = file_text(k1, first, last, &self.base, est, self.width, self.height);
+                    let h = segments::hash_bytes(text.as_bytes());
+                    let rec = &mut self.manifest.segment[k1 as usize];
+                    if !rec.written.contains(&h) {
+                        rec.written.push(h.clone());
+                        self.manifest.write(&self.run_dir)?;
+                    }
+                    let path = segments::file_path(&self.run_dir, k1);
+                    crate::atomic::write(&path, text.as_bytes())?;
+                    let rec = &mut self.manifest.segment[k1 as usize];
+                    rec.written = vec![h.clone()];
+                    if last {
+                        rec.tracked_from = h;
+                    }
                 }
-                crate::atomic::write(&segments::file_path(&self.run_dir, k1), text.as_bytes())?;
-                self.manifest.segment[k1 as usize].written = vec![h];
             }
         }
         self.manifest.tracked_segments = k + 1;
@@ -368,15 +413,10 @@ impl Session {
     fn finish(&mut self, count: u64, frames: u64) -> Result<Finished> {
         segments::assemble_tracks(&self.run_dir, count)?;
         let (table, report) = self.report()?;
-        let name = self
-            .run_dir
-            .file_name()
-            .map_or("run".into(), |n| n.to_string_lossy().into_owned());
         crate::atomic::write(
             &self.run_dir.join("report.md"),
-            report.to_markdown(&name).as_bytes(),
+            report.to_markdown().as_bytes(),
         )?;
-        self.manifest.segment.truncate(count as usize);
         self.manifest.frames = frames;
         self.manifest.complete = true;
         self.manifest.write(&self.run_dir)?;
@@ -422,6 +462,7 @@ pub fn build_report(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result
     let th = Thresholds::default();
     let ev = evidence(&table, sk, &sides, &seed_len, &starts, &th);
     let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
-    let report = Report::build(&table, &ev, &names, &plan, &corrected, &th);
+    let files = manifest.segment.len() as u64;
+    let report = Report::build(&table, &ev, &names, &plan, &corrected, files, &th);
     Ok((table, report))
 }

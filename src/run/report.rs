@@ -285,17 +285,21 @@ pub struct SegmentNeed {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Report {
     pub segments: Vec<SegmentNeed>,
+    /// Segment files of the run: one per segment, and one more on the clip's last frame when
+    /// the last segment has more than one frame.
+    pub files: u64,
 }
 
 impl Report {
     /// Builds the report from the evidence `ev` (see [`evidence`]) over table `t`, cut by
-    /// `plan`; `corrected[k]` says segment k's file is a correction.
+    /// `plan`; `corrected[k]` says segment file k is a correction; `files` counts them.
     pub fn build(
         t: &Table,
         ev: &Evidence,
         names: &[String],
         plan: &Plan,
         corrected: &[bool],
+        files: u64,
         th: &Thresholds,
     ) -> Report {
         let mut segments: Vec<SegmentNeed> = Vec::new();
@@ -342,13 +346,27 @@ impl Report {
             s.joints
                 .sort_by(|a, b| b.frames.cmp(&a.frames).then(a.first.cmp(&b.first)));
         }
-        Report { segments }
+        Report { segments, files }
     }
 
     /// Flagged segments, most needy first (ties: earlier first).
     pub fn ranked(&self) -> Vec<&SegmentNeed> {
         let mut v: Vec<&SegmentNeed> = self.segments.iter().filter(|s| s.flagged).collect();
         v.sort_by(|a, b| b.need.total_cmp(&a.need).then(a.index.cmp(&b.index)));
+        v
+    }
+
+    /// The segment files to correct: each flagged segment's and the next one's (a segment is
+    /// tracked forward from its file and, once the next is corrected, back from that), in order.
+    pub fn files_to_correct(&self) -> Vec<u64> {
+        let mut v: Vec<u64> = self
+            .ranked()
+            .iter()
+            .flat_map(|s| [s.index, s.index + 1])
+            .filter(|&k| k < self.files)
+            .collect();
+        v.sort();
+        v.dedup();
         v
     }
 
@@ -388,9 +406,9 @@ impl Report {
     }
 
     /// `report.md`.
-    pub fn to_markdown(&self, run_name: &str) -> String {
+    pub fn to_markdown(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "# Correction report: {run_name}\n");
+        let _ = writeln!(s, "# Correction report\n");
         let r = self.ranked();
         if r.is_empty() {
             let _ = writeln!(
@@ -404,12 +422,28 @@ impl Report {
                 s,
                 "{} of {} segments need a look, most needy first. Their need is about how many \
                  joint-frames are far off (more than 10 px, going by the evidence: hidden joints, \
-                 low scores, jumps, moves off the joint's motion, bone lengths). To correct \
-                 segment K, edit `segments/K.toml` (its first frame) and run `mocap2d resume RUN \
-                 --segment K`; resuming from the segment before a correction also tracks back \
-                 from it, so the frames before it improve too.\n",
+                 low scores, jumps, moves off the joint's motion, bone lengths).\n",
                 r.len(),
                 self.segments.len()
+            );
+            let files = self.files_to_correct();
+            let names: Vec<String> = files
+                .iter()
+                .map(|k| format!("`segments/{k:03}.toml`"))
+                .collect();
+            let _ = writeln!(
+                s,
+                "To correct them, move the wrong rectangles in {} (the first frame of each \
+                 segment that needs a look and of the one after it: a segment is tracked \
+                 forward from its file and back from a corrected next one; the file after the \
+                 last segment holds the clip's last frame), then run `mocap2d resume RUN \
+                 --segment {}`.\n",
+                names.join(", "),
+                files
+                    .first()
+                    .copied()
+                    .unwrap_or(0)
+                    .min(self.segments.len() as u64 - 1)
             );
             let _ = writeln!(
                 s,
@@ -506,7 +540,7 @@ mod tests {
             seed_frame: 0,
             len: 10,
         };
-        let r = Report::build(t, &ev, &sk.names, &plan, &[], &th);
+        let r = Report::build(t, &ev, &sk.names, &plan, &[], 3, &th);
         (ev, r)
     }
 
@@ -538,6 +572,7 @@ mod tests {
         // only frames near them.
         let ranked: Vec<u64> = r.ranked().iter().map(|s| s.index).collect();
         assert_eq!(ranked, [2, 1]);
+        assert_eq!(r.files_to_correct(), [1, 2]);
         let s1 = &r.segments[1];
         assert_eq!((s1.joints[0].joint.as_str(), s1.joints[0].first), ("b", 10));
         assert!((s1.need - 8.0 * 0.46).abs() < 1e-3, "{}", s1.need);
@@ -546,7 +581,7 @@ mod tests {
             "{}",
             r.summary()
         );
-        let md = r.to_markdown("x");
+        let md = r.to_markdown();
         assert!(
             md.contains("| b | 10–19 | 10 | jump, off its motion, bone length |"),
             "{md}"

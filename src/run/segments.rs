@@ -212,7 +212,8 @@ impl Start {
     }
 }
 
-/// Text of segment `k`'s file (first frame `first`) from the estimates on its first frame:
+/// Text of segment file `k` (on frame `first`; with `last`, the file after the last segment,
+/// on the clip's last frame: a keyframe that closes the last segment) from the estimates on its first frame:
 /// the run's seed joints (`base`: names, sizes, parents) at the estimated centres, each moved
 /// just enough to keep its rectangle inside the `width × height` frame, with the estimated
 /// `angle`, `score` and `status`. A comment header says how to correct it and which joints are
@@ -220,6 +221,7 @@ impl Start {
 pub fn file_text(
     k: u64,
     first: u64,
+    last: bool,
     base: &Seeds,
     est: &[JointEstimate],
     width: u32,
@@ -262,11 +264,26 @@ pub fn file_text(
         .filter(|(_, e)| !matches!(e.status, Status::Ok | Status::Seed))
         .map(|(b, e)| format!("{} ({}, score {:.2})", b.name, e.status.as_str(), e.score))
         .collect();
-    let mut header = format!(
-        "segment {k}, from frame {first}: written by mocap2d from the tracking; tracking restarts here.\n\
-         To correct it, move the wrong rectangles (x, y; w, h may change too) and run\n\
-         `mocap2d resume RUN --segment {k}`. An edited file is a correction: it is kept as you\n\
-         leave it, and every joint in it is taken as right. Delete it to undo a correction.\n"
+    let mut header = if last {
+        format!(
+            "frame {first}, the clip's last, written by mocap2d from the tracking. It closes \
+             segment {}:\nif the end of the clip went wrong, correct it (move the wrong \
+             rectangles) and run\n`mocap2d resume RUN --segment {}`, which then also tracks \
+             that segment back from here.\n",
+            k.saturating_sub(1),
+            k.saturating_sub(1)
+        )
+    } else {
+        format!(
+            "segment {k}, from frame {first}: written by mocap2d from the tracking; tracking \
+             restarts here.\nTo correct it, move the wrong rectangles (x, y; w, h may change \
+             too) and run\n`mocap2d resume RUN --segment {k}`. \
+             "
+        )
+    };
+    header.push_str(
+        "An edited file is a correction: it is kept as you leave it, and every joint in it\nis \
+         taken as right. Delete it to undo a correction.\n",
     );
     if doubtful.is_empty() {
         header.push_str("Every joint was seen here.\n");
@@ -360,7 +377,7 @@ mod tests {
             est(50.0, 50.0, 0.0, Status::Ok),
             est(50.0, 60.0, std::f32::consts::FRAC_PI_2, Status::Low),
         ];
-        let text = file_text(2, 60, &b, &e, 100, 100);
+        let text = file_text(2, 60, false, &b, &e, 100, 100);
         assert!(
             text.contains("Doubtful here: knee (low, score 0.50)"),
             "{text}"
@@ -388,7 +405,7 @@ mod tests {
             est(2.0, 50.0, 0.0, Status::Ok),
             est(50.0, 99.0, 0.0, Status::Ok),
         ];
-        let s = parse_seeds(&file_text(1, 30, &b, &e, 100, 100), Path::new("x")).unwrap();
+        let s = parse_seeds(&file_text(1, 30, false, &b, &e, 100, 100), Path::new("x")).unwrap();
         assert_eq!(s.joints[0].bbox.cx, 5.0);
         assert_eq!(s.joints[1].bbox.cy, 94.0);
         s.check_against_clip(Path::new("x"), 100, 100, None)
