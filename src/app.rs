@@ -207,6 +207,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         height: info.height,
         manifest: start,
         seed_image: None,
+        last_angles: None,
     };
     progress.start("track", info.frame_count_hint);
     let rx = decode::spawn_reader(source, 8);

@@ -208,13 +208,15 @@ fn track_writes_tracks_manifest_and_seed_copy() {
         ],
         "no temp files left behind"
     );
-    // One segment (60 frames < 150): its seed file and its rows, which are tracks.csv's.
+    // One segment (60 frames < 150): its seed file and its rows, which are tracks.csv's, and
+    // the file on the clip's last frame.
     let mut segs: Vec<_> = std::fs::read_dir(run.join("segments"))
         .unwrap()
         .map(|e| e.unwrap().file_name())
         .collect();
     segs.sort();
-    assert_eq!(segs, ["000.csv", "000.toml"]);
+    assert_eq!(segs, ["000.csv", "000.toml", "001.toml"]);
+    assert!(read(&run.join("segments/001.toml")).contains(&format!("frame = {}", FRAMES - 1)));
     assert_eq!(
         read(&run.join("segments/000.csv")),
         read(&run.join("tracks.csv"))

@@ -4,19 +4,21 @@
 //!
 //! A pass's weight for a joint on a frame is its score (a tenth of it while the joint is not
 //! seen). Passes that started from different keyframes or appearances and still land within
-//! [`AGREE_PX`] of each other are strong evidence, so each candidate's support is half its own
-//! weight plus the weights of the other passes that agree with it; the best supported candidate
-//! wins, averaged (by weight) with the passes that agree with it. A lone pass that disagrees is
+//! [`AGREE_PX`] of each other are strong evidence, so each candidate's support is its weight
+//! plus the weights of the other passes that agree with it; the best supported candidate wins
+//! (the more confident of equally supported ones), averaged (by weight) with the passes that
+//! agree with it. A lone pass that disagrees is
 //! taken whole, never averaged with the others (halfway between a right and a wrong place is
 //! wrong).
 //!
 //! Measured on synth clips with ground-truth keyframes at both ends of every segment (PCK@5
 //! over the frames between, `long` at 640×360 in segments of 150; a 240-frame mixed clip at
 //! 320×180 in segments of 40): forward and backward passes picked by score alone 89.5 % and
-//! 90.6 %; the four passes picked by score 92.1 % and 91.8 %; by support as here 92.7 % and
-//! 94.5 %; an oracle picking the best of the four every time, 96.3 % and 98.0 %. Weighting the
+//! 90.6 %; the four passes picked by score 92.1 % and 91.8 %; by support as here 92.5 % and
+//! 94.0 %; an oracle picking the best of the four every time, 96.3 % and 98.0 %. Weighting the
 //! passes by nearness to their keyframe did not help on `long` (87.4 % for two passes).
 
+use crate::run::segments::turns_near;
 use crate::track::JointEstimate;
 
 /// Passes closer than this (px) agree.
@@ -49,19 +51,23 @@ pub fn blend(passes: &[Vec<Vec<JointEstimate>>]) -> Vec<Vec<JointEstimate>> {
                     let w: Vec<f32> = c.iter().map(|e| weight(e)).collect();
                     let agree = |a: usize, b: usize| (c[a].pos - c[b].pos).norm() <= AGREE_PX;
                     let support = |a: usize| -> f32 {
-                        0.5 * w[a]
-                            + (0..c.len())
-                                .filter(|&b| b != a && agree(a, b))
-                                .map(|b| w[b])
-                                .sum::<f32>()
+                        (0..c.len())
+                            .filter(|&b| agree(a, b))
+                            .map(|b| w[b])
+                            .sum::<f32>()
                     };
                     let best = (0..c.len())
-                        .max_by(|&a, &b| support(a).total_cmp(&support(b)).then(b.cmp(&a)))
+                        .max_by(|&a, &b| {
+                            support(a)
+                                .total_cmp(&support(b))
+                                .then(w[a].total_cmp(&w[b]))
+                                .then(b.cmp(&a))
+                        })
                         .expect("at least one pass");
                     let (mut pos, mut angle, mut total) = (c[best].pos.coords * 0.0, 0.0, 0.0);
                     for b in (0..c.len()).filter(|&b| agree(best, b)) {
                         pos += c[b].pos.coords * w[b];
-                        angle += c[b].angle_rad * w[b];
+                        angle += turns_near(c[best].angle_rad, c[b].angle_rad) * w[b];
                         total += w[b];
                     }
                     JointEstimate {
@@ -105,7 +111,7 @@ mod tests {
     fn two_agreeing_passes_outvote_a_more_confident_one() {
         let p = |x: f32, score: f32| vec![e(x, score, Status::Ok)];
         let out = blend(&[p(0.0, 0.9), p(20.0, 0.6), p(21.0, 0.6)]);
-        // Support: 0.45 for the lone pass, 0.3 + 0.6 for each of the pair.
+        // Support: 0.9 for the lone pass, 1.2 for each of the pair.
         assert!((out[0][0].pos.x - 20.5).abs() < 1e-4, "{:?}", out[0][0].pos);
     }
 

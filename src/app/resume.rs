@@ -59,6 +59,7 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
         height: manifest.height,
         manifest,
         seed_image: None,
+        last_angles: None,
     };
     // Every segment file from K on must read before anything is written.
     let count = session.manifest.segment.len() as u64;

@@ -45,6 +45,9 @@ pub struct Session {
     pub manifest: Manifest,
     /// The seed frame, once decoded: the appearance of restarted segments is built on it.
     pub seed_image: Option<RgbImage>,
+    /// Angles (radians) of the last row written, as `tracks.csv` holds them: a corrected file
+    /// counts turns from them.
+    pub last_angles: Option<Vec<f32>>,
 }
 
 /// What a finished segmented run reports.
@@ -244,6 +247,10 @@ impl Session {
                 }
             }
         };
+        self.last_angles = match first_segment {
+            0 => None,
+            k => Some(segments::last_angles(&self.run_dir, k - 1)?),
+        };
         let mut k = first_segment;
         loop {
             let (rows, boundary) = self.track_segment(k, &cur, &mut frames)?;
@@ -282,8 +289,11 @@ impl Session {
     )> {
         let plan = self.plan();
         let next = plan.first_frame(k + 1);
-        let start = self.start(k)?;
-        let end = self.correction(k + 1)?;
+        let mut start = self.start(k)?;
+        if let (true, Some(r)) = (start.corrected, &self.last_angles) {
+            start.align_turns(r);
+        }
+        let mut end = self.correction(k + 1)?;
         let keyframe = k == 0 || start.corrected;
         let mut forward = vec![self.tracker_at(
             &start,
@@ -317,10 +327,17 @@ impl Session {
         out[0].1 = start.row.clone();
         let at_next = boundary.as_ref().map(|_| out.pop().expect("pushed").1);
         // A correction on the clip's last frame, inside this segment: the last frame held.
-        let tail = match (&end, &boundary) {
+        let tail = match (&mut end, &boundary) {
             (Some(e), None) if !held.is_empty() && e.seeds.frame + 1 == frames.count => {
-                out.last_mut().expect("held frames were tracked").1 = e.row.clone();
+                let last = &mut out.last_mut().expect("held frames were tracked").1;
+                e.align_turns(&last.iter().map(|x| x.angle_rad).collect::<Vec<_>>());
+                *last = e.row.clone();
                 held.pop()
+            }
+            (Some(e), Some(_)) => {
+                let at = at_next.as_ref().expect("a boundary");
+                e.align_turns(&at.iter().map(|x| x.angle_rad).collect::<Vec<_>>());
+                None
             }
             _ => None,
         };
@@ -344,6 +361,13 @@ impl Session {
                 row.1 = b;
             }
         }
+        // Rows from several passes, or a pass and its keyframe, may count turns differently.
+        for i in 1..out.len() {
+            let (done, rest) = out.split_at_mut(i);
+            for (e, p) in rest[0].1.iter_mut().zip(&done[i - 1].1) {
+                e.angle_rad = segments::turns_near(p.angle_rad, e.angle_rad);
+            }
+        }
         Ok((out, at_next.zip(boundary)))
     }
 
@@ -358,6 +382,7 @@ impl Session {
         next: Option<(u64, &[JointEstimate], bool)>,
     ) -> Result<()> {
         segments::write_rows(&self.run_dir, k, &self.names, rows)?;
+        self.last_angles = rows.last().map(|(_, est)| written_angles(est));
         let used = self.start(k)?.hash;
         self.manifest.segment[k as usize].tracked_from = used;
         if next.is_none_or(|n| n.2) {
@@ -431,6 +456,13 @@ impl Session {
     pub fn report(&self) -> Result<(Table, Report)> {
         build_report(&self.run_dir, &self.manifest, &self.base)
     }
+}
+
+/// Angles (radians) of a row as `tracks.csv` writes them (4 decimals).
+fn written_angles(est: &[JointEstimate]) -> Vec<f32> {
+    est.iter()
+        .map(|e| format!("{:.4}", e.angle_rad).parse().unwrap_or(e.angle_rad))
+        .collect()
 }
 
 /// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`.

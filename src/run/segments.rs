@@ -29,7 +29,7 @@ pub struct Plan {
 impl Plan {
     /// First frame of segment `k`.
     pub fn first_frame(&self, k: u64) -> u64 {
-        self.seed_frame + k * self.len
+        self.seed_frame.saturating_add(k.saturating_mul(self.len))
     }
 
     /// The segment holding `frame` (frames before the seed frame: segment 0).
@@ -93,6 +93,13 @@ fn pose_dirs(seeds: &Seeds, rotate_roots: bool) -> Vec<Option<f32>> {
             None => None,
         })
         .collect()
+}
+
+/// `a` (radians) plus the whole turns that bring it nearest `reference`: passes started on
+/// different frames may count turns differently. Exact in `a` (only whole turns are added).
+pub fn turns_near(reference: f32, a: f32) -> f32 {
+    let tau = std::f32::consts::TAU;
+    a + tau * ((reference - a) / tau).round()
 }
 
 /// A segment's starting point, read from its file.
@@ -212,6 +219,17 @@ impl Start {
     }
 }
 
+impl Start {
+    /// Counts each joint's turns as `reference` (radians, one per joint) does: for a corrected
+    /// file, whose `angle` fields the user may have left as they were.
+    pub fn align_turns(&mut self, reference: &[f32]) {
+        for ((a, r), e) in self.angles.iter_mut().zip(reference).zip(&mut self.row) {
+            *a = turns_near(*r, *a);
+            e.angle_rad = *a;
+        }
+    }
+}
+
 /// Text of segment file `k` (on frame `first`; with `last`, the file after the last segment,
 /// on the clip's last frame: a keyframe that closes the last segment) from the estimates on its first frame:
 /// the run's seed joints (`base`: names, sizes, parents) at the estimated centres, each moved
@@ -308,6 +326,18 @@ pub fn write_rows(
         }
         Ok(())
     })
+}
+
+/// The angles (radians) on the last row of segment `k`'s rows, one per joint.
+pub fn last_angles(run_dir: &Path, k: u64) -> Result<Vec<f32>> {
+    let p = rows_path(run_dir, k);
+    let rows = crate::run::tracks::read_tracks(&p)?;
+    let last = rows.last().map_or(0, |r| r.frame);
+    Ok(rows
+        .iter()
+        .filter(|r| r.frame == last)
+        .map(|r| r.angle)
+        .collect())
 }
 
 /// Joins the rows of segments `0..count` into `tracks.csv` (one header), atomically.
