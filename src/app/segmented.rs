@@ -22,7 +22,8 @@
 use crate::background::Background;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::run::report::{evidence, Report, Table, Thresholds};
+use crate::run::evidence::{evidence, Table, Thresholds};
+use crate::run::report::Report;
 use crate::run::segments::{self, file_text, Plan, Start};
 use crate::run::tracks::read_tracks;
 use crate::run::{Manifest, SegmentRecord};
