@@ -1,5 +1,5 @@
 //! What segments cost and what the report finds, on the synthetic scenarios: each is rendered
-//! (640×360 unless `--size`, seed 1), encoded, and tracked through `mocap2d::app::track` once per
+//! (640×360 unless `--size`, seed 1, the scenario's length unless `--frames`), encoded, and tracked through `mocap2d::app::track` once per
 //! segment length; per run it prints PCK@5, the median error, the segments the report flags and
 //! the report's recall (share of joint-frames more than 10 px off that lie in flagged segments).
 //! A segment length of 0 stands for one segment over the whole clip (continuous tracking).
@@ -7,6 +7,7 @@
 //! ```sh
 //! cargo run --release --example segments -- walk occlude --len 0,30,60
 //! cargo run --release --example segments -- long --len 0,150,300
+//! cargo run --release --example segments -- walk squash --frames 450 --len 0,150
 //! ```
 
 use mocap2d::app::{track, TrackOptions};
@@ -19,6 +20,7 @@ fn main() -> anyhow::Result<()> {
     let mut scenarios = Vec::new();
     let mut lens = vec![0u64, 30, 60];
     let mut size = (640, 360);
+    let mut frames = None;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -30,6 +32,7 @@ fn main() -> anyhow::Result<()> {
                     .map(|v| v.parse())
                     .collect::<Result<_, _>>()?
             }
+            "--frames" => frames = Some(args.next().unwrap_or_default().parse()?),
             "--size" => {
                 size = mocap2d::cli::parse_size(&args.next().unwrap_or_default())
                     .map_err(anyhow::Error::msg)?
@@ -47,7 +50,7 @@ fn main() -> anyhow::Result<()> {
             width: size.0,
             height: size.1,
             seed: 1,
-            frames: None,
+            frames,
         });
         write_clip(&clip, dir.path())?;
         for &len in &lens {
