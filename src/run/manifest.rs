@@ -81,7 +81,11 @@ impl Manifest {
         })?;
         toml::from_str(&text).map_err(|e| Error::RunFolder {
             path: path.to_owned(),
-            msg: format!("the run manifest is damaged or was edited: {}", e.message()),
+            msg: if e.message().contains("missing field") && !text.contains("segment_len") {
+                "written by an older mocap2d, without segments; track the clip again".into()
+            } else {
+                format!("the run manifest is damaged or was edited: {}", e.message())
+            },
         })
     }
 
@@ -153,4 +157,86 @@ pub fn hash_clip(path: &Path) -> Result<(u64, String)> {
         add_file(path, &mut hasher)?;
     }
     Ok((total, hasher.finalize().to_hex().to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Manifest {
+        Manifest {
+            tool: "mocap2d".into(),
+            version: "0.1.0".into(),
+            clip: ClipId {
+                path: "c.mp4".into(),
+                bytes: 10,
+                blake3: "ab".into(),
+            },
+            width: 64,
+            height: 48,
+            fps: 30.0,
+            frames: 12,
+            seed_frame: 0,
+            joints: 2,
+            seeds_blake3: "cd".into(),
+            background: "none".into(),
+            background_threshold: 0,
+            segment_len: 5,
+            config_blake3: String::new(),
+            complete: true,
+            tracked_segments: 3,
+            params: TrackParams::default(),
+            segment: vec![SegmentRecord {
+                first_frame: 0,
+                written: vec!["ef".into()],
+                tracked_from: "ef".into(),
+            }],
+        }
+    }
+
+    #[test]
+    fn round_trips_and_the_config_hash_sees_the_parameters() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut m = sample();
+        m.config_blake3 = m.config_hash();
+        m.write(dir.path()).unwrap();
+        assert_eq!(Manifest::read(&dir.path().join(RUN_TOML)).unwrap(), m);
+        let mut other = m.clone();
+        other.params.search_max_px += 1.0;
+        assert_ne!(other.config_hash(), m.config_hash());
+        other = m.clone();
+        other.tracked_segments = 1;
+        assert_eq!(
+            other.config_hash(),
+            m.config_hash(),
+            "progress is not config"
+        );
+    }
+
+    #[test]
+    fn an_older_manifest_says_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(RUN_TOML);
+        let text = sample().to_toml();
+        let old: String = text
+            .lines()
+            .filter(|l| {
+                ![
+                    "segment_len",
+                    "config_blake3",
+                    "complete",
+                    "tracked_segments",
+                ]
+                .iter()
+                .any(|k| l.starts_with(k))
+            })
+            .map(|l| format!("{l}\n"))
+            .collect();
+        std::fs::write(&p, old).unwrap();
+        let m = Manifest::read(&p).unwrap_err().to_string();
+        assert!(
+            m.contains("older mocap2d") && m.contains("track the clip again"),
+            "{m}"
+        );
+    }
 }
