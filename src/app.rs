@@ -5,10 +5,11 @@ use crate::background::Background;
 use crate::decode::{self, FrameSource};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::run::{hash_clip, ClipId, Manifest, TracksWriter};
+use crate::run::{folder, hash_clip, segments, ClipId, Manifest, SegmentRecord};
 use crate::seed::{read_seeds, Seeds};
-use crate::track::{gapfill::GapFiller, JointEstimate, TrackParams, Tracker};
+use crate::track::{gapfill::GapFiller, JointEstimate, Status, TrackParams, Tracker};
 use image::RgbImage;
+use segmented::{Finished, Session};
 use std::path::{Path, PathBuf};
 
 /// Frames sampled across the clip for the temporal-median clean plate.
@@ -30,8 +31,13 @@ pub struct TrackOptions {
     pub background: Option<PathBuf>,
     /// Skip background subtraction altogether.
     pub no_background: bool,
+    /// Frames per segment: tracking restarts from `segments/NNN.toml` every this many frames.
+    pub segment_len: u64,
     pub params: TrackParams,
 }
+
+/// Frames per segment when none is asked for.
+pub const DEFAULT_SEGMENT_LEN: u64 = 150;
 
 impl TrackOptions {
     /// Options for tracking `clip` from `seeds` with every default: run folder beside the clip,
@@ -45,6 +51,7 @@ impl TrackOptions {
             fps: None,
             background: None,
             no_background: false,
+            segment_len: DEFAULT_SEGMENT_LEN,
             params: TrackParams::default(),
         }
     }
@@ -63,6 +70,14 @@ pub struct TrackSummary {
     pub note: String,
     /// The clip is damaged or cut short: where decoding stopped (also in `run.toml`).
     pub decode_stop: Option<decode::DecodeStop>,
+    /// Segments the clip was cut into.
+    pub segments: u64,
+    /// The report's one-line summary (see [`crate::run::report::Report::summary`]).
+    pub report: String,
+    /// Segments the report flags, most needy first.
+    pub flagged: Vec<u64>,
+    /// Segment files the report says to correct, in order.
+    pub to_correct: Vec<u64>,
 }
 
 /// The default run folder for a clip: `<stem>.mocap` beside it.
@@ -155,7 +170,8 @@ pub fn track_frames(
     Ok(count)
 }
 
-/// `mocap2d track`: decode → background → track, writing the run folder.
+/// `mocap2d track`: decode → background → track segment by segment, writing the run folder
+/// (see [`crate::run`]). A run folder that holds corrections is refused (resume applies them).
 pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummary> {
     // Validate everything before anything is written.
     let (seeds, seed_text, note) = match &opts.dlc {
@@ -199,6 +215,11 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
             },
             (e, _) => e,
         })?;
+    if opts.segment_len == 0 {
+        return Err(Error::Usage(
+            "--segment-len 0: a segment needs at least 1 frame".into(),
+        ));
+    }
     let run_dir = opts
         .out
         .clone()
@@ -209,66 +230,114 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
             run_dir.display()
         )));
     }
+    folder::check_no_corrections(&run_dir)?;
     progress.start("background", None);
     let (background, bg_desc) = background_for(opts, info.width, info.height)?;
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
+    let (bytes, blake3) = hash_clip(&opts.clip)?;
 
     let created_dir = !run_dir.exists();
-    std::fs::create_dir_all(&run_dir).map_err(|e| Error::io(&run_dir, e))?;
-    let tracks_path = run_dir.join("tracks.csv");
-    // On failure leave nothing behind: the partial tracks, and a folder this run made with the
-    // files it wrote (a full disk can fail the last writes).
+    std::fs::create_dir_all(run_dir.join(segments::SEGMENTS_DIR))
+        .map_err(|e| Error::io(&run_dir, e))?;
+    // On failure leave nothing behind in a folder this run made; an interrupted run keeps its
+    // checkpoint for `resume`.
     let abandon = |e: Error| -> Error {
-        let _ = std::fs::remove_file(crate::atomic::temp_path(&tracks_path));
-        if created_dir {
-            let _ = std::fs::remove_file(&tracks_path);
-            let _ = std::fs::remove_file(run_dir.join("seeds.toml"));
-            let _ = std::fs::remove_dir(&run_dir);
+        if created_dir && !matches!(e, Error::Interrupted) {
+            let _ = std::fs::remove_dir_all(&run_dir);
         }
         e
     };
-    let mut writer = TracksWriter::create(&tracks_path)?;
+    let start = prepare_new_run(
+        &run_dir, &seeds, &seed_text, opts, &info, bg_desc, threshold, bytes, blake3,
+    )
+    .map_err(abandon)?;
     let names: Vec<String> = seeds.joints.iter().map(|j| j.name.clone()).collect();
-    let mut counts = std::collections::BTreeMap::<&'static str, u64>::new();
-    let mut tracked = 0u64;
+    let mut session = Session {
+        run_dir: run_dir.clone(),
+        base: seeds,
+        names,
+        params: opts.params.clone(),
+        background,
+        width: info.width,
+        height: info.height,
+        manifest: start,
+        seed_image: None,
+        last_angles: None,
+    };
     progress.start("track", info.frame_count_hint);
     let rx = decode::spawn_reader(source, 8);
     let mut decode_stop = None;
-    let result = track_frames(
+    let result = session.run(
         decode::salvage(rx.into_iter(), info.stated_frames, &mut decode_stop),
-        &seeds,
-        &opts.params,
-        background,
+        0,
         progress,
-        |idx, est| {
-            tracked += 1;
-            for e in est {
-                *counts.entry(e.status.as_str()).or_default() += 1;
-            }
-            writer.write_frame(idx, &names, est)
-        },
     );
     progress.finish();
-    let frames = result.map_err(abandon)?;
-    if frames == 0 {
-        return Err(abandon(no_frames(&opts.clip)));
-    }
-    if tracked == 0 {
-        return Err(abandon(Error::Seed {
+    let done = result.map_err(|e| match e {
+        // The seed frame was never reached.
+        Error::RunFolder { .. } if session.manifest.tracked_segments == 0 => Error::Seed {
             path: opts.seeds.clone(),
             line: None,
             joint: None,
             msg: format!(
-                "frame = {} is beyond the clip, which has {frames} frames (0..{}); set `frame` to a frame of the clip",
-                seeds.frame,
-                frames.saturating_sub(1)
+                "frame = {} is beyond the clip; set `frame` to a frame of the clip",
+                session.manifest.seed_frame
             ),
-        }));
+        },
+        e => e,
+    });
+    let done = done.map_err(abandon)?;
+    if decode_stop.is_some() {
+        // The clip is damaged or cut short: say where decoding stopped, in run.toml too.
+        session.manifest.decode_stop = decode_stop.clone();
+        session.manifest.write(&run_dir)?;
     }
-    writer.finish().map_err(abandon)?;
-    let (bytes, blake3) = hash_clip(&opts.clip).map_err(abandon)?;
-    let manifest = Manifest {
+    let mut summary = TrackSummary::new(run_dir, &session, &done);
+    summary.note = note;
+    summary.decode_stop = decode_stop;
+    Ok(summary)
+}
+
+/// Writes what a new run starts from: earlier results into `history/`, `seeds.toml`, the
+/// manifest (incomplete, nothing tracked) and `segments/000.toml` from the seeds. Returns the
+/// manifest.
+#[allow(clippy::too_many_arguments)]
+fn prepare_new_run(
+    run_dir: &Path,
+    seeds: &Seeds,
+    seed_text: &str,
+    opts: &TrackOptions,
+    info: &decode::ClipInfo,
+    bg_desc: String,
+    threshold: u32,
+    bytes: u64,
+    blake3: String,
+) -> Result<Manifest> {
+    folder::remove_temp_files(run_dir)?;
+    folder::archive_previous(run_dir)?;
+    folder::clear_segments(run_dir)?;
+    let _ = std::fs::remove_file(run_dir.join("report.md"));
+    let at_seed: Vec<JointEstimate> = seeds
+        .joints
+        .iter()
+        .map(|j| JointEstimate {
+            pos: j.bbox.centre(),
+            angle_rad: 0.0,
+            score: 1.0,
+            status: Status::Seed,
+        })
+        .collect();
+    let first = segments::file_text(
+        0,
+        seeds.frame,
+        false,
+        seeds,
+        &at_seed,
+        info.width,
+        info.height,
+    );
+    let mut manifest = Manifest {
         tool: "mocap2d".into(),
         version: env!("CARGO_PKG_VERSION").into(),
         clip: ClipId {
@@ -279,31 +348,75 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         width: info.width,
         height: info.height,
         fps: info.fps,
-        frames,
+        frames: 0,
         seed_frame: seeds.frame,
         joints: seeds.joints.len(),
         seeds_blake3: blake3::hash(seed_text.as_bytes()).to_hex().to_string(),
         background: bg_desc,
         background_threshold: threshold,
+        segment_len: opts.segment_len,
+        config_blake3: String::new(),
+        complete: false,
+        tracked_segments: 0,
         params: opts.params.clone(),
-        decode_stop: decode_stop.clone(),
+        decode_stop: None,
+        segment: vec![SegmentRecord {
+            first_frame: seeds.frame,
+            written: vec![segments::hash_bytes(first.as_bytes())],
+            tracked_from: String::new(),
+        }],
     };
-    crate::atomic::write(&run_dir.join("seeds.toml"), seed_text.as_bytes()).map_err(abandon)?;
-    // Last, so a folder with run.toml is a complete run.
-    crate::atomic::write(&run_dir.join("run.toml"), manifest.to_toml().as_bytes())
-        .map_err(abandon)?;
-    Ok(TrackSummary {
-        run_dir,
-        frames,
-        tracked_frames: tracked,
-        joints: seeds.joints.len(),
-        status_counts: counts
-            .into_iter()
-            .map(|(k, v)| (k.to_string(), v))
-            .collect(),
-        note,
-        decode_stop,
-    })
+    manifest.config_blake3 = manifest.config_hash();
+    crate::atomic::write(&run_dir.join("seeds.toml"), seed_text.as_bytes())?;
+    manifest.write(run_dir)?;
+    crate::atomic::write(&segments::file_path(run_dir, 0), first.as_bytes())?;
+    Ok(manifest)
+}
+
+impl TrackSummary {
+    /// The summary of a finished session.
+    fn new(run_dir: PathBuf, session: &Session, done: &Finished) -> TrackSummary {
+        let mut counts = std::collections::BTreeMap::<&'static str, u64>::new();
+        for row in &done.table.status {
+            for st in row {
+                *counts.entry(st.as_str()).or_default() += 1;
+            }
+        }
+        TrackSummary {
+            run_dir,
+            frames: done.frames,
+            tracked_frames: done.table.frames.len() as u64,
+            joints: session.names.len(),
+            status_counts: counts
+                .into_iter()
+                .map(|(k, v)| (k.to_string(), v))
+                .collect(),
+            segments: session.manifest.tracked_segments,
+            report: done.report.summary(),
+            flagged: done.report.ranked().iter().map(|s| s.index).collect(),
+            to_correct: done.report.files_to_correct(),
+            note: String::new(),
+            decode_stop: None,
+        }
+    }
+}
+
+/// `mocap2d report`: the correction report of a run folder (see [`crate::run::report`]), as
+/// `report.md` holds it, recomputed from its `tracks.csv` and segment files.
+pub fn report(run_dir: &Path) -> Result<crate::run::report::Report> {
+    let manifest = Manifest::read(&run_dir.join(crate::run::manifest::RUN_TOML))?;
+    let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
+    if !manifest.complete {
+        return Err(Error::RunFolder {
+            path: run_dir.to_owned(),
+            msg: format!(
+                "the run is not complete (tracked {} segments); `mocap2d resume {}` finishes it",
+                manifest.tracked_segments,
+                run_dir.display()
+            ),
+        });
+    }
+    Ok(segmented::build_report(run_dir, &manifest, &base)?.1)
 }
 
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines
@@ -336,15 +449,20 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
 }
 
 mod animate;
+mod blend;
 mod export;
 mod guide;
+mod resume;
 mod review;
+mod segmented;
 mod serve;
 pub use animate::{
     render, retarget, run_frame, RenderOptions, RenderSummary, Renderer, RetargetSummary,
     RETARGET_DIR,
 };
+pub use blend::blend;
 pub use export::{export, ExportOptions, ExportSummary};
 pub use guide::{guide, read_frame, GuideOptions, GuideSummary};
+pub use resume::{resume, ResumeOptions};
 pub use review::{review, ReviewSummary, REVIEW_DIR};
 pub use serve::{serve, DEFAULT_PORT};

@@ -22,6 +22,10 @@ pub struct Cli {
 pub enum Command {
     /// Track the joints of a seed file through a clip (video file or folder of numbered frames).
     Track(TrackArgs),
+    /// Carry on a run after a crash, or re-track it from a corrected segment file.
+    Resume(ResumeArgs),
+    /// Print a run's correction report (segments ranked by need of correction) as Markdown.
+    Report(ReportArgs),
     /// Render a synthetic test clip with ground truth (clip.mp4, gt.csv, joints.toml, background.png).
     Synth(SynthArgs),
     /// Compare a run's tracks with ground truth (frame,joint,x,y): median, p95, PCK@5/@10.
@@ -268,6 +272,33 @@ pub struct TrackArgs {
     /// Tracking parameters (TOML, keys as in run.toml's [params]); unset keys keep their defaults.
     #[arg(long, value_name = "TOML")]
     pub params: Option<PathBuf>,
+    /// Frames per segment: tracking restarts every N frames from segments/NNN.toml, the file
+    /// to correct when it goes wrong.
+    #[arg(long, value_name = "N", default_value_t = crate::app::DEFAULT_SEGMENT_LEN,
+          value_parser = clap::value_parser!(u64).range(1..))]
+    pub segment_len: u64,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ReportArgs {
+    /// Run folder written by `mocap2d track`.
+    pub run: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ResumeArgs {
+    /// Run folder written by `mocap2d track`.
+    pub run: PathBuf,
+    /// Re-track from segment K on (after editing RUN/segments/K.toml); frames before it stay as
+    /// they are [default: where the run stopped, or the first segment edited since].
+    #[arg(long, value_name = "K")]
+    pub segment: Option<u64>,
+    /// The clip, if it moved since `track` (it must be the same clip).
+    #[arg(long)]
+    pub clip: Option<PathBuf>,
+    /// Parameter file the run should have been tracked with (checked against run.toml).
+    #[arg(long, value_name = "TOML")]
+    pub params: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -413,6 +444,39 @@ mod tests {
             "f"
         ])
         .is_ok());
+    }
+
+    #[test]
+    fn parses_segment_flags() {
+        let cli = Cli::try_parse_from([
+            "mocap2d",
+            "track",
+            "a.mp4",
+            "--seeds",
+            "j.toml",
+            "--segment-len",
+            "40",
+        ])
+        .unwrap();
+        let Command::Track(a) = cli.command else {
+            panic!("not track")
+        };
+        assert_eq!(a.segment_len, 40);
+        assert!(Cli::try_parse_from([
+            "mocap2d",
+            "track",
+            "a.mp4",
+            "--seeds",
+            "j.toml",
+            "--segment-len",
+            "0"
+        ])
+        .is_err());
+        let cli = Cli::try_parse_from(["mocap2d", "resume", "r.mocap", "--segment", "3"]).unwrap();
+        let Command::Resume(a) = cli.command else {
+            panic!("not resume")
+        };
+        assert_eq!(a.segment, Some(3));
     }
 
     #[test]

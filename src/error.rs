@@ -61,7 +61,7 @@ pub enum Error {
     Encode { path: PathBuf, msg: String },
 
     /// The work was interrupted (Ctrl-C, SIGTERM); no file was left half-written.
-    #[error("interrupted; no file was left half-written")]
+    #[error("interrupted; no file was left half-written (a `track` or `resume` carries on with `mocap2d resume RUN`)")]
     Interrupted,
 }
 

@@ -227,29 +227,32 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 fps: a.fps,
                 background: a.background,
                 no_background: a.no_background,
+                segment_len: a.segment_len,
             };
             let s = app::track(&opts, &bars)?;
-            if !s.note.is_empty() {
-                eprintln!("note: {}", s.note);
+            print_summary("tracked", &s);
+        }
+        Command::Resume(a) => {
+            let opts = app::ResumeOptions {
+                params: match &a.params {
+                    Some(p) => Some(mocap2d::cli::read_params(Some(p))?),
+                    None => None,
+                },
+                run: a.run,
+                segment: a.segment,
+                clip: a.clip,
+            };
+            match app::resume(&opts, &bars)? {
+                Some(s) => print_summary("resumed:", &s),
+                None => eprintln!(
+                    "{}: nothing to do: the run is complete and no segment file changed since it \
+                     was tracked (edit one, or give --segment K)",
+                    opts.run.display()
+                ),
             }
-            if let Some(stop) = &s.decode_stop {
-                eprintln!(
-                    "warning: {}: the clip is damaged or cut short: {stop}",
-                    opts.clip.display()
-                );
-            }
-            let counts: Vec<String> = s
-                .status_counts
-                .iter()
-                .map(|(k, v)| format!("{k} {v}"))
-                .collect();
-            eprintln!(
-                "tracked {} joints over {} frames -> {} ({})",
-                s.joints,
-                s.tracked_frames,
-                s.run_dir.display(),
-                counts.join(", ")
-            );
+        }
+        Command::Report(a) => {
+            print!("{}", app::report(&a.run)?.to_markdown());
         }
         Command::Synth(a) => {
             let opts = mocap2d::synth::SynthOptions {
@@ -373,6 +376,30 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Prints what `track` or `resume` did, and the report's summary (stdout).
+fn print_summary(what: &str, s: &app::TrackSummary) {
+    if !s.note.is_empty() {
+        eprintln!("note: {}", s.note);
+    }
+    if let Some(stop) = &s.decode_stop {
+        eprintln!("warning: the clip is damaged or cut short: {stop}");
+    }
+    let counts: Vec<String> = s
+        .status_counts
+        .iter()
+        .map(|(k, v)| format!("{k} {v}"))
+        .collect();
+    eprintln!(
+        "{what} {} joints over {} frames in {} segments -> {} ({})",
+        s.joints,
+        s.tracked_frames,
+        s.segments,
+        s.run_dir.display(),
+        counts.join(", ")
+    );
+    println!("{}", s.report);
 }
 
 fn main() -> ExitCode {

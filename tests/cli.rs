@@ -199,9 +199,29 @@ fn track_writes_tracks_manifest_and_seed_copy() {
     names.sort();
     assert_eq!(
         names,
-        ["run.toml", "seeds.toml", "tracks.csv"],
+        [
+            "report.md",
+            "run.toml",
+            "seeds.toml",
+            "segments",
+            "tracks.csv"
+        ],
         "no temp files left behind"
     );
+    // One segment (60 frames < 150): its seed file and its rows, which are tracks.csv's, and
+    // the file on the clip's last frame.
+    let mut segs: Vec<_> = std::fs::read_dir(run.join("segments"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    segs.sort();
+    assert_eq!(segs, ["000.csv", "000.toml", "001.toml"]);
+    assert!(read(&run.join("segments/001.toml")).contains(&format!("frame = {}", FRAMES - 1)));
+    assert_eq!(
+        read(&run.join("segments/000.csv")),
+        read(&run.join("tracks.csv"))
+    );
+    assert!(manifest.lines().any(|l| l == "complete = true"));
 }
 
 #[test]
@@ -229,7 +249,13 @@ fn two_runs_write_identical_files() {
     let d = Dir::new();
     let a = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "a.mocap", &[]);
     let b = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "b.mocap", &[]);
-    for f in ["tracks.csv", "run.toml", "seeds.toml"] {
+    for f in [
+        "tracks.csv",
+        "run.toml",
+        "seeds.toml",
+        "report.md",
+        "segments/000.toml",
+    ] {
         assert!(
             std::fs::read(a.join(f)).unwrap() == std::fs::read(b.join(f)).unwrap(),
             "{f} differs between runs"

@@ -7,11 +7,19 @@
 //!   run.toml     manifest: tool version, clip identity (path, size, content hash), frame count,
 //!                fps, frame size, seed file hash, every parameter used
 //!   seeds.toml   the seed file, verbatim
+//!   report.md    segments ranked by need of correction ([`report`], from [`evidence`])
+//!   segments/    NNN.toml: segment NNN's seed file, the user's place to correct; NNN.csv: its
+//!                rows of tracks.csv, the checkpoint `resume` carries on from ([`segments`])
+//!   history/     NNN-tracks.csv, NNN-report.md: results a rerun replaced ([`folder`])
 //! ```
 //! Every file is written atomically (see [`crate::atomic`]).
 
+pub mod evidence;
+pub mod folder;
 pub mod manifest;
+pub mod report;
+pub mod segments;
 pub mod tracks;
 
-pub use manifest::{hash_clip, ClipId, Manifest};
+pub use manifest::{hash_clip, ClipId, Manifest, SegmentRecord};
 pub use tracks::{TrackRow, TracksWriter};

