@@ -151,6 +151,7 @@ fn missing_or_edited_run_files_are_named() {
         std::fs::create_dir_all(to.join("retarget")).unwrap();
         for f in files(&good) {
             let rel = f.strip_prefix(&good).unwrap();
+            std::fs::create_dir_all(to.join(rel).parent().unwrap()).unwrap();
             std::fs::copy(&f, to.join(rel)).unwrap();
         }
         to
@@ -348,7 +349,7 @@ fn full_disk_is_a_clear_error_with_nothing_half_written() {
         "--out",
         s(&out),
     ]);
-    assert_fails(&o, 1, &["tracks.csv", "No space left"]);
+    assert_fails(&o, 1, &[".mocap", "No space left"]);
     assert!(files(&full.0).is_empty(), "{:?}", files(&full.0));
     let video = full.0.join("robot.mp4");
     let o = run(&[
@@ -446,8 +447,8 @@ fn sigint_during_track_and_render_stops_promptly_and_cleanly() {
     let out = dir.path().join("long.mocap");
     let seeds = walk("joints.toml");
     let args = ["track", s(&clip), "--seeds", s(&seeds), "--out", s(&out)];
-    let tmp = out.join("tracks.csv.tmp");
-    let (o, took) = interrupt(&args, || tmp.exists()).expect("SIGINT while tracking");
+    let first = out.join("segments").join("000.toml");
+    let (o, took) = interrupt(&args, || first.exists()).expect("SIGINT while tracking");
     assert_fails(&o, 130, &["interrupted"]);
     assert!(
         took < Duration::from_secs(3),
@@ -460,6 +461,11 @@ fn sigint_during_track_and_render_stops_promptly_and_cleanly() {
         temp_files(dir.path())
     );
     assert!(!out.join("tracks.csv").exists() || out.join("run.toml").exists());
+    // The checkpoint is kept: `resume` finishes the run.
+    if out.join("run.toml").exists() {
+        assert_ok(&run(&["resume", s(&out)]));
+        assert!(out.join("tracks.csv").exists());
+    }
 
     // Render: a full run of the long clip, then Ctrl-C mid-render.
     assert_ok(&run(&args));

@@ -180,7 +180,8 @@ fn review_writes_overlay_plot_and_sheet_that_decode() {
     );
     let o = run(d, &["review", "r.mocap"]);
     assert_exit(&o, 0);
-    assert!(String::from_utf8_lossy(&o.stderr).contains("every 150th"));
+    // `track` wrote a segment file at the seed frame and one at the last frame.
+    assert!(String::from_utf8_lossy(&o.stderr).contains("2 segments"));
     let rev = d.join("r.mocap/review");
     let overlay = mocap2d::decode::read_all(&rev.join("overlay.mp4"), None).unwrap();
     assert_eq!(overlay.len(), 30);

@@ -32,7 +32,13 @@ fn run_with_segments() -> (tempfile::TempDir, PathBuf) {
     let run = mocap2d::app::track(&opts, &NoProgress).unwrap().run_dir;
     let (seeds, _) = read_seeds(&run.join("seeds.toml")).unwrap();
     let rows = mocap2d::run::tracks::read_tracks(&run.join("tracks.csv")).unwrap();
-    std::fs::create_dir(run.join("segments")).unwrap();
+    // Replace the segment files `track` wrote (frames 0 and 29) with three of our own.
+    for e in std::fs::read_dir(run.join("segments")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            std::fs::remove_file(p).unwrap();
+        }
+    }
     for (k, f) in [0u64, 10, 20].into_iter().enumerate() {
         let joints: Vec<_> = seeds
             .joints
