@@ -169,7 +169,7 @@ fn page_api_and_save() {
         ),
         (Some("001"), Some(10), Some(20))
     );
-    assert_eq!(info["resume"], false);
+    assert_eq!(info["resume"], true);
 
     // The first frame of segment 001 is frame 10 of the clip, pixel for pixel.
     let (st, png) = srv.req("GET", "/api/segments/001/frame.png", b"");
@@ -240,9 +240,17 @@ fn page_api_and_save() {
     assert!(!run.join("segments/history/001.002.toml").exists());
 
     let (st, r) = srv.json("POST", "/api/segments/001/resume", b"");
-    assert_eq!(st, 501);
+    // The button runs `resume`: its errors come back as they would on the command line (these
+    // hand-made segment files do not follow the run's layout, whose segment 1 is its last frame).
+    assert_eq!(st, 400, "{r}");
     assert!(
-        r["error"].as_str().unwrap().contains("mocap2d resume"),
+        r["error"].as_str().unwrap().contains("segments/001.toml"),
+        "{r}"
+    );
+    let (st, r) = srv.json("POST", "/api/segments/000/resume", b"");
+    assert_eq!(st, 400, "{r}");
+    assert!(
+        r["error"].as_str().unwrap().contains("set it back to 29"),
         "{r}"
     );
 }

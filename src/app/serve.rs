@@ -2,6 +2,7 @@
 //! [`crate::review::serve`] for the routes and [`crate::review::api`] for what a save writes).
 
 use crate::error::Result;
+use crate::progress::NoProgress;
 use crate::review::api::{Api, ResumeFn};
 use crate::review::serve::Server;
 use std::net::SocketAddr;
@@ -11,14 +12,27 @@ use std::sync::atomic::AtomicBool;
 /// Default port of `mocap2d serve`.
 pub const DEFAULT_PORT: u16 = 8765;
 
-/// What the page's "Resume from here" button runs: `None` while the app has no resume.
-///
-/// Issue 4 adds `mocap2d resume RUN --segment K`. Wire it here, e.g.
-/// `Some(Box::new(|run, k| { resume(run, k, &NoProgress)?; review(run, None, &NoProgress)?;
-/// Ok(format!("resumed from segment {k:03}; review/ refreshed")) }))`; the endpoint then answers
-/// 200 with that message instead of 501, and the page reloads the segment list.
-fn resume_hook() -> Option<Box<ResumeFn>> {
-    None
+/// What the page's "Resume from here" button runs: `mocap2d resume RUN --segment K` (with the
+/// clip the server was given, if any), then `mocap2d review RUN` so the overlay shows the result.
+fn resume_hook(clip: Option<&Path>) -> Option<Box<ResumeFn>> {
+    let clip = clip.map(Path::to_path_buf);
+    Some(Box::new(move |run: &Path, k: u32| {
+        let opts = super::ResumeOptions {
+            run: run.to_path_buf(),
+            segment: Some(u64::from(k)),
+            clip: clip.clone(),
+            params: None,
+        };
+        let done = super::resume(&opts, &NoProgress)?;
+        super::review(run, clip.as_deref(), &NoProgress)?;
+        Ok(match done {
+            Some(s) => format!(
+                "resumed from segment {k:03}: {} frames tracked; review/ refreshed. {}",
+                s.tracked_frames, s.report
+            ),
+            None => format!("segment {k:03}: nothing to do; review/ refreshed"),
+        })
+    }))
 }
 
 /// Reads the run, binds `127.0.0.1:port` (0: any free port), calls `ready` with the address,
@@ -30,7 +44,7 @@ pub fn serve(
     stop: &AtomicBool,
     ready: impl FnOnce(SocketAddr),
 ) -> Result<()> {
-    let api = Api::open(run, clip, resume_hook())?;
+    let api = Api::open(run, clip, resume_hook(clip))?;
     let server = Server::bind(api, port)?;
     ready(server.addr());
     server.run(stop);
