@@ -153,10 +153,24 @@ fn a_bad_clip_is_reported_and_the_others_go_on() {
     assert!(rows[0].starts_with("shots/c1.mp4") && rows[1].starts_with("shots/c1b.mp4"));
     let csv = std::fs::read_to_string(s.path("batch-summary.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "clip,run,frames,frames_per_s,status,error");
+    assert_eq!(
+        lines[0],
+        "clip,run,frames,frames_per_s,status,error,flagged_segments"
+    );
     assert_eq!(lines.len(), 4, "{csv}");
     assert!(
         lines[2].starts_with("shots/c1b.mp4,shots/c1b.mocap,,,failed,"),
+        "{csv}"
+    );
+    // A tracked clip's row ends with how many segments its report flags; a failed one's is empty.
+    assert!(lines[2].ends_with(','), "{csv}");
+    assert!(
+        lines[3]
+            .rsplit(',')
+            .next()
+            .unwrap()
+            .parse::<usize>()
+            .is_ok(),
         "{csv}"
     );
     assert!(

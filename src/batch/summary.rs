@@ -50,12 +50,11 @@ impl ClipOutcome {
     }
 }
 
-/// HOOK for segment review, which is being built separately: the number of flagged segments
-/// (stretches of a run worth a look) in `run_dir`. Returns `None` for now because mocap2d
-/// writes no segment data yet; while every clip gives `None` the summary has no
-/// `flagged segments` column. Replace the body once the segment files exist.
-pub fn flagged_segments_hook(_run_dir: &Path) -> Option<usize> {
-    None
+/// The number of segments the run's correction report flags (see [`crate::app::report`]), or
+/// `None` when `run_dir` has no complete run to report on; while every clip gives `None` the
+/// summary has no `flagged segments` column.
+pub fn flagged_segments_hook(run_dir: &Path) -> Option<usize> {
+    crate::app::report(run_dir).ok().map(|r| r.ranked().len())
 }
 
 /// The exit code a batch ends with: 0 if no clip failed, 2 if every failure is one the user
