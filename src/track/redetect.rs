@@ -9,7 +9,7 @@
 //! with wide windows), and the best is taken only if, judged on the judging level, the root's
 //! strips fit at least `redetect_share`. The motion models of the body are then restarted at rest there.
 
-use super::motion::{Motion, Prediction};
+use super::motion::Prediction;
 use super::search::{grid_min, Window};
 use super::strip::View;
 use super::Tracker;
@@ -154,10 +154,7 @@ impl Tracker {
     /// Restarts the motion models of `body` (a root first) at rest at `x`.
     fn restart_motion(&mut self, body: &[usize], x: &[Point]) {
         for &k in body {
-            self.joints[k].motion = match self.parents[k] {
-                None => Motion::root(x[k], &self.params),
-                Some(par) => Motion::bone(x[par], x[k], &self.params),
-            };
+            self.joints[k].motion = self.motion_at_rest(k, x);
         }
     }
 }

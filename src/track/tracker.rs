@@ -141,12 +141,10 @@ impl Tracker {
     /// seed pose. For restarting a segment without rebuilding the appearance on its first frame.
     pub fn restart_at(&mut self, centres: &[Point]) {
         for &j in &self.order {
+            let motion = self.motion_at_rest(j, centres);
             let state = &mut self.joints[j];
             let par = self.parents[j];
-            state.motion = match par {
-                None => Motion::root(centres[j], &self.params),
-                Some(p) => Motion::bone(centres[p], centres[j], &self.params),
-            };
+            state.motion = motion;
             state.hidden_run = 0;
             let dir = match par {
                 Some(p) => Some(direction(centres[p], centres[j])),
@@ -161,6 +159,15 @@ impl Tracker {
                 score: 1.0,
                 status: Status::Seed,
             };
+        }
+    }
+
+    /// Joint `j`'s motion model at rest with the joints at `x` (px): a root's position, or the
+    /// bone from its parent.
+    pub(super) fn motion_at_rest(&self, j: usize, x: &[Point]) -> Motion {
+        match self.parents[j] {
+            None => Motion::root(x[j], &self.params),
+            Some(p) => Motion::bone(x[p], x[j], &self.params),
         }
     }
 
