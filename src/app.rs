@@ -31,7 +31,7 @@ pub struct TrackOptions {
     pub background: Option<PathBuf>,
     /// Skip background subtraction altogether.
     pub no_background: bool,
-    /// Frames per segment: tracking restarts from `segments/NNN.toml` every this many frames.
+    /// Frames per segment: a checkpoint and a file to correct (`segments/NNN.toml`) every this many frames.
     pub segment_len: u64,
     pub params: TrackParams,
 }
@@ -264,6 +264,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         manifest: start,
         seed_image: None,
         last_angles: None,
+        carried: None,
     };
     progress.start("track", info.frame_count_hint);
     let rx = decode::spawn_reader(source, 8);
@@ -363,7 +364,7 @@ fn prepare_new_run(
         segment: vec![SegmentRecord {
             first_frame: seeds.frame,
             written: vec![segments::hash_bytes(first.as_bytes())],
-            tracked_from: String::new(),
+            ..SegmentRecord::default()
         }],
     };
     manifest.config_blake3 = manifest.config_hash();

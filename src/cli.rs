@@ -272,8 +272,8 @@ pub struct TrackArgs {
     /// Tracking parameters (TOML, keys as in run.toml's [params]); unset keys keep their defaults.
     #[arg(long, value_name = "TOML")]
     pub params: Option<PathBuf>,
-    /// Frames per segment: tracking restarts every N frames from segments/NNN.toml, the file
-    /// to correct when it goes wrong.
+    /// Frames per segment: every N frames a checkpoint and a file to correct
+    /// (segments/NNN.toml); tracking restarts there only from a corrected file.
     #[arg(long, value_name = "N", default_value_t = crate::app::DEFAULT_SEGMENT_LEN,
           value_parser = clap::value_parser!(u64).range(1..))]
     pub segment_len: u64,

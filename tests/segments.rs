@@ -485,3 +485,57 @@ fn a_correction_fixes_the_segment_before_it_only_when_resumed_from_there() {
         "the backward pass changed nothing"
     );
 }
+
+#[test]
+fn uncorrected_segment_boundaries_track_as_one_tracker() {
+    // A boundary the user did not correct hands the whole tracker state on, so segments change
+    // nothing but gap filling: a joint hidden across a boundary is not interpolated over it.
+    let clip = Synth::new(Scenario::Walk, 320, 180, Some(90));
+    clip.track("one.mocap", 100_000);
+    clip.track("seg.mocap", 15);
+    let one = read_tracks(&clip.path("one.mocap/tracks.csv")).unwrap();
+    let seg = read_tracks(&clip.path("seg.mocap/tracks.csv")).unwrap();
+    assert_eq!(one.len(), seg.len());
+    let mut hidden_differ = 0;
+    for (a, b) in one.iter().zip(&seg) {
+        if matches!(a.status.as_str(), "seed" | "ok" | "low") {
+            assert_eq!(a, b, "a seen joint-frame differs with segments of 15");
+        } else if a != b {
+            hidden_differ += 1;
+        }
+    }
+    assert!(
+        (hidden_differ as f32) < 0.1 * one.len() as f32,
+        "{hidden_differ} of {} hidden joint-frames differ",
+        one.len()
+    );
+    assert!(clip.path("seg.mocap/segments/001.state").exists());
+    assert!(!clip.path("one.mocap/segments/001.state").exists());
+}
+
+#[test]
+fn a_missing_or_changed_state_file_is_named_and_rebuilt_from_an_earlier_segment() {
+    let clip = Synth::new(Scenario::Walk, 320, 180, Some(40));
+    let run = clip.path("run.mocap");
+    clip.track("run.mocap", 10);
+    let before = folder_bytes(&run);
+    let state = run.join("segments/002.state");
+    std::fs::remove_file(&state).unwrap();
+    let o = run_bin(&["resume", s(&run), "--segment", "2"]);
+    assert_exit(&o, 2, &["002.state", "is missing", "--segment 0"]);
+    std::fs::write(&state, b"mocap2d tracker state 2\nnot a state").unwrap();
+    let o = run_bin(&["resume", s(&run), "--segment", "2"]);
+    assert_exit(&o, 2, &["002.state", "changed"]);
+    // Resuming from the segment before rebuilds it: the folder is as track left it.
+    let o = run_bin(&["resume", s(&run), "--segment", "1"]);
+    assert_exit(&o, 0, &["resumed"]);
+    let after: Vec<_> = folder_bytes(&run)
+        .into_iter()
+        .filter(|(n, _)| n != "run.toml")
+        .collect();
+    let before: Vec<_> = before
+        .into_iter()
+        .filter(|(n, _)| n != "run.toml")
+        .collect();
+    assert!(after == before, "resume rebuilt what track wrote");
+}

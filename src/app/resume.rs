@@ -60,6 +60,7 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
         manifest,
         seed_image: None,
         last_angles: None,
+        carried: None,
     };
     // Every segment file from K on must read before anything is written.
     let count = session.manifest.segment.len() as u64;
@@ -203,7 +204,7 @@ fn pick_segment(opts: &ResumeOptions, m: &Manifest, run_dir: &Path) -> Result<Op
             return Err(Error::RunFolder {
                 path: p,
                 msg: format!(
-                    "missing: tracking restarts from it; put it back, or resume from an earlier \
+                    "missing: tracking starts from it; put it back, or resume from an earlier \
                      segment (mocap2d rewrites it), e.g. --segment {}",
                     k.saturating_sub(1)
                 ),

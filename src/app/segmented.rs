@@ -1,25 +1,27 @@
 //! Segmented tracking, shared by `track` and `resume`: from segment K on, each segment is
-//! tracked by a fresh [`Tracker`] started on its first frame from `segments/NNN.toml`, and
-//! checkpointed when done (its rows in `segments/NNN.csv`, the next segment's file, `run.toml`).
-//! A segment depends only on its file, its frames, the seed frame and segment 0's file, and
-//! (when the next file is a correction) the next file, so resuming from any checkpoint repeats
-//! exactly what an uninterrupted run does.
+//! tracked on from its first frame and checkpointed when done (its rows in
+//! `segments/NNN.csv`, the next segment's file and tracker state, `run.toml`). Resuming from
+//! any checkpoint repeats exactly what an uninterrupted run does.
 //!
 //! How a segment's tracker starts:
 //! - on segment 0, or on a corrected file (a keyframe the user vouches for), it is built from
 //!   that file on that frame (appearance included);
-//! - on a file the tool wrote, it is built from segment 0's file on the seed frame and moved to
-//!   the file's rectangles ([`Tracker::restart_at`]): an appearance learnt on a frame where
-//!   joints may be hidden or misplaced would carry the error on. Measured on the synth
-//!   scenarios (PCK@5, 640×360): in segments of 150, 450-frame clips track better than with
-//!   one tracker through the clip (by 0.3 to 9 points: drift is cut short); in segments of 30,
-//!   120-frame clips lose 2 to 4 points, and 14 to 26 if the appearance is rebuilt on each
-//!   segment instead. The README has the table.
+//! - on a file the tool wrote, the previous segment's tracker goes on: its whole state
+//!   ([`Tracker::state`], kept in `segments/NNN.state` for resume) is restored on a tracker
+//!   built from the seed frame, so an uncorrected boundary changes nothing but gap filling (a
+//!   joint hidden across a boundary is not interpolated over it). Restarting there instead
+//!   forgets that the character turned round (mirrored strips), what it learnt, and that the
+//!   body was lost: measured on `long` (900 frames, 640×360, segments of 150, PCK@5) over
+//!   seeds 1–3, going on gives 79.8 / 74.0 / 83.9 %, restarting at the file's rectangles with
+//!   the seed frame's appearance 54.0 / 46.4 / 61.0 %, with the learnt appearance but the
+//!   motion at rest 80.6 / 47.2 / 75.2 % (a lost body restarted as if seen stays lost). On
+//!   450-frame clips the restart did better by 2–5 points (walk, occlude, fast, noisy): it
+//!   cuts a drift short by chance rather than by evidence, and costs a whole body on long.
 //!
 //! When the next segment's file is a correction, the segment's frames are held in memory and
 //! tracked backward from it too, once with the appearance built on the correction and once with
-//! the seed frame's (and, when the segment itself starts on a correction, forward with both as
-//! well); the passes are blended ([`super::blend`]).
+//! the seed frame's (and, when the segment itself starts on a correction, forward with the seed
+//! frame's as well); the passes are blended ([`super::blend`]).
 
 use crate::background::Background;
 use crate::error::{Error, Result};
@@ -51,6 +53,9 @@ pub struct Session {
     /// Angles (radians) of the last row written, as `tracks.csv` holds them: a corrected file
     /// counts turns from them.
     pub last_angles: Option<Vec<f32>>,
+    /// What the previous segment's tracker learnt ([`Tracker::state`]), when this
+    /// run tracked it: the next segment starts from it (else from its `segments/NNN.state`).
+    pub carried: Option<Vec<u8>>,
 }
 
 /// What a finished segmented run reports.
@@ -63,11 +68,14 @@ pub struct Finished {
 
 /// Where a segment tracker's appearance model is built.
 #[derive(Debug, Clone, Copy)]
-enum Appearance {
+enum Appearance<'a> {
     /// On the segment file's own frame, from its rectangles.
     Here,
     /// On the seed frame, from segment 0's file; the tracker then restarts at the rectangles.
     SeedFrame,
+    /// As `SeedFrame`, then given what the previous segment's tracker learnt
+    /// ([`Tracker::state`]), for segment `.0`.
+    Learnt(u64, &'a [u8]),
 }
 
 /// One tracking pass: a tracker, its gap filler, what it has output, and the angle to add to
@@ -106,14 +114,19 @@ impl Pass {
     }
 
     /// Every frame's estimates, in the order they were tracked, angles from the seed pose.
-    fn finish(mut self) -> Vec<(u64, Vec<JointEstimate>)> {
+    fn finish(self) -> Vec<(u64, Vec<JointEstimate>)> {
+        self.finish_keep().0
+    }
+
+    /// [`Pass::finish`], giving the tracker back too.
+    fn finish_keep(mut self) -> (Vec<(u64, Vec<JointEstimate>)>, Tracker) {
         self.out.extend(self.filler.finish());
         for (_, est) in &mut self.out {
             for (e, off) in est.iter_mut().zip(&self.offsets) {
                 e.angle_rad += off;
             }
         }
-        self.out
+        (self.out, self.tracker)
     }
 }
 
@@ -188,6 +201,35 @@ impl Session {
         }
     }
 
+    /// `segments/NNN.state` of segment `k`, checked against the hash `run.toml` records.
+    fn read_state(&self, k: u64) -> Result<Vec<u8>> {
+        let path = segments::state_path(&self.run_dir, k);
+        let recorded = self
+            .manifest
+            .segment
+            .get(k as usize)
+            .map(|r| r.state.as_str());
+        match std::fs::read(&path) {
+            Ok(b) if recorded == Some(segments::hash_bytes(&b).as_str()) => Ok(b),
+            Ok(_) => Err(self.state_error(k, "was changed since it was written")),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                Err(self.state_error(k, "is missing"))
+            }
+            Err(e) => Err(Error::io(&path, e)),
+        }
+    }
+
+    /// Segment `k`'s state file cannot be used: the message says how to get on.
+    fn state_error(&self, k: u64, what: &str) -> Error {
+        Error::RunFolder {
+            path: segments::state_path(&self.run_dir, k),
+            msg: format!(
+                "{what} (it holds what tracking learnt up to segment {k}, written by the tool); \
+                 resume from an earlier segment (`--segment 0` always works) to rebuild it"
+            ),
+        }
+    }
+
     fn tracker(&self, seeds: &Seeds, frame: &RgbImage) -> Tracker {
         Tracker::new(self.params.clone(), seeds, frame, self.background.clone())
     }
@@ -197,19 +239,30 @@ impl Session {
     fn tracker_at(&self, start: &Start, frame: &RgbImage, appearance: Appearance) -> Result<Pass> {
         let t = match appearance {
             Appearance::Here => self.tracker(&start.seeds, frame),
-            Appearance::SeedFrame => {
+            Appearance::SeedFrame | Appearance::Learnt(..) => {
                 let first = self.start(0)?;
                 let image = self
                     .seed_image
                     .as_ref()
                     .expect("the seed frame is decoded before any segment");
                 let mut t = self.tracker(&first.seeds, image);
-                let centres: Vec<_> = start.seeds.boxes().iter().map(|b| b.centre()).collect();
-                t.restart_at(&centres);
+                if let Appearance::Learnt(k, bytes) = appearance {
+                    if !t.restore_state(bytes) {
+                        return Err(self.state_error(k, "does not fit this run"));
+                    }
+                } else {
+                    let centres: Vec<_> = start.seeds.boxes().iter().map(|b| b.centre()).collect();
+                    t.restart_at(&centres);
+                }
                 t
             }
         };
-        Ok(Pass::new(t, &start.angles, start.seeds.frame))
+        // A tracker carried on measures its angles from the run's seed pose already.
+        let angles: Vec<f32> = match appearance {
+            Appearance::Learnt(..) => t.current().iter().map(|e| e.angle_rad).collect(),
+            _ => start.angles.clone(),
+        };
+        Ok(Pass::new(t, &angles, start.seeds.frame))
     }
 
     /// Tracks from segment `first_segment` (whose file must exist) to the end of the clip,
@@ -282,7 +335,7 @@ impl Session {
     /// too, and the passes blended ([`super::blend`]).
     #[allow(clippy::type_complexity)]
     fn track_segment<I: Iterator<Item = Result<(u64, RgbImage)>>>(
-        &self,
+        &mut self,
         k: u64,
         first: &RgbImage,
         frames: &mut Frames<'_, I>,
@@ -298,13 +351,17 @@ impl Session {
         }
         let mut end = self.correction(k + 1)?;
         let keyframe = k == 0 || start.corrected;
+        let learnt = match (keyframe, self.carried.take()) {
+            (true, _) => None,
+            (false, Some(b)) => Some(b),
+            (false, None) => Some(self.read_state(k)?),
+        };
         let mut forward = vec![self.tracker_at(
             &start,
             first,
-            if keyframe {
-                Appearance::Here
-            } else {
-                Appearance::SeedFrame
+            match &learnt {
+                None => Appearance::Here,
+                Some(b) => Appearance::Learnt(k, b),
             },
         )?];
         if end.is_some() && start.corrected && k > 0 {
@@ -324,10 +381,13 @@ impl Session {
                 held.push(frame);
             }
         }
-        let mut forward: Vec<Vec<(u64, Vec<JointEstimate>)>> =
-            forward.into_iter().map(Pass::finish).collect();
-        let mut out = forward.swap_remove(0);
-        out[0].1 = start.row.clone();
+        let mut passes = forward.into_iter();
+        let (mut out, tracker) = passes.next().expect("one forward pass").finish_keep();
+        let forward: Vec<Vec<(u64, Vec<JointEstimate>)>> = passes.map(Pass::finish).collect();
+        self.carried = Some(tracker.state());
+        if keyframe {
+            out[0].1 = start.row.clone();
+        }
         let at_next = boundary.as_ref().map(|_| out.pop().expect("pushed").1);
         // A correction on the clip's last frame, inside this segment: the last frame held.
         let tail = match (&mut end, &boundary) {
@@ -394,6 +454,11 @@ impl Session {
                 .segment
                 .truncate(k as usize + 1 + next.is_some() as usize);
         }
+        if let (Some((_, _, false)), Some(state)) = (next, &self.carried) {
+            // What the next segment's tracker starts from: written before the manifest
+            // records it, so a crash in between only makes resume track segment k again.
+            crate::atomic::write(&segments::state_path(&self.run_dir, k + 1), state)?;
+        }
         if let Some((first, est, last)) = next {
             let k1 = k + 1;
             match self.manifest.segment.get_mut(k1 as usize) {
@@ -401,16 +466,18 @@ impl Session {
                 Some(rec) => {
                     *rec = SegmentRecord {
                         first_frame: first,
-                        written: Vec::new(),
-                        tracked_from: String::new(),
+                        ..SegmentRecord::default()
                     }
                 }
                 None => self.manifest.segment.push(SegmentRecord {
                     first_frame: first,
-                    written: Vec::new(),
-                    tracked_from: String::new(),
+                    ..SegmentRecord::default()
                 }),
             }
+            self.manifest.segment[k1 as usize].state = match (last, &self.carried) {
+                (false, Some(state)) => segments::hash_bytes(state),
+                _ => String::new(),
+            };
             match self.correction(k1)? {
                 Some(c) if last => self.manifest.segment[k1 as usize].tracked_from = c.hash,
                 Some(_) => {}
@@ -483,19 +550,12 @@ pub fn build_report(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result
         .map(|j| sk.parents[j].map_or(0.0, |p| (boxes[j].centre() - boxes[p].centre()).norm()))
         .collect();
     let mut corrected = Vec::new();
-    let mut starts = Vec::new();
     for (k, rec) in manifest.segment.iter().enumerate() {
         let h = segments::hash_file(&segments::file_path(run_dir, k as u64))?;
-        let c = h.is_some_and(|h| !rec.written.contains(&h));
-        corrected.push(c);
-        if k > 0 && !c {
-            if let Ok(i) = table.frames.binary_search(&rec.first_frame) {
-                starts.push(i);
-            }
-        }
+        corrected.push(h.is_some_and(|h| !rec.written.contains(&h)));
     }
     let th = Thresholds::default();
-    let ev = evidence(&table, sk, &sides, &seed_len, &starts, &th);
+    let ev = evidence(&table, sk, &sides, &seed_len, &th);
     let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
     let files = manifest.segment.len() as u64;
     let report = Report::build(&table, &ev, &names, &plan, &corrected, files, &th);

@@ -14,8 +14,7 @@
 //! - **bone length** (0.3; 0.33 and 0.46 outside the seed ranges): its bone's length left the
 //!   range it had over the last [`Thresholds::bone_window`] frames by more than
 //!   [`Thresholds::bone_tolerance`], or is outside [`Thresholds::bone_range`] (or the wider
-//!   [`Thresholds::bone_range_wide`]) times its seed length;
-//! - **doubtful start** (0.25): a segment restarted from a joint whose status was not `ok`.
+//!   [`Thresholds::bone_range_wide`]) times its seed length.
 //!
 //! A joint-frame weighs the most of the evidence it shows (see [`evidence`]).
 
@@ -31,7 +30,6 @@ pub const HIDDEN: u8 = 2;
 pub const JUMP: u8 = 4;
 pub const RESIDUAL: u8 = 8;
 pub const BONE: u8 = 16;
-pub const START: u8 = 32;
 /// Set on the frames a doubt spreads to.
 pub const NEAR: u8 = 64;
 
@@ -111,7 +109,7 @@ impl Table {
     }
 }
 
-/// Evidence on every joint-frame of a table: which kinds show (bits [`LOW`] … [`START`], or
+/// Evidence on every joint-frame of a table: which kinds show (bits [`LOW`] … [`BONE`], or
 /// [`NEAR`] within [`Thresholds::spread`] frames of some) and what the joint-frame weighs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Evidence {
@@ -120,14 +118,12 @@ pub struct Evidence {
 }
 
 /// The evidence on every joint of every frame of `t`. `sides` is each joint's rectangle side
-/// (px), `seed_len` each bone's length on the seed frame (px, by child joint; roots unused),
-/// `starts` the table indices where a tracker restarted from a file that was not corrected.
+/// (px), `seed_len` each bone's length on the seed frame (px, by child joint; roots unused).
 pub fn evidence(
     t: &Table,
     sk: &Skeleton,
     sides: &[f32],
     seed_len: &[f32],
-    starts: &[usize],
     th: &Thresholds,
 ) -> Evidence {
     let n = t.frames.len();
@@ -187,23 +183,6 @@ pub fn evidence(
             }
             m[i][j] = b;
             w[i][j] = wt;
-        }
-    }
-    // A tracker restarted on a doubtful joint: the segment is in doubt for it.
-    let mut bounds: Vec<usize> = starts.to_vec();
-    bounds.push(n);
-    for win in bounds.windows(2) {
-        let (s, e) = (win[0], win[1].min(n));
-        if s >= e {
-            continue;
-        }
-        for j in 0..nj {
-            if !matches!(t.status[s][j], Status::Ok | Status::Seed) {
-                for i in s..e {
-                    m[i][j] |= START;
-                    w[i][j] = w[i][j].max(0.25);
-                }
-            }
         }
     }
     // Spread, for the listing.

@@ -40,7 +40,7 @@ pub struct Manifest {
     /// `median:N` (temporal median of N sampled frames), `plate:PATH`, or `none`.
     pub background: String,
     pub background_threshold: u32,
-    /// Frames per segment: tracking restarts from `segments/NNN.toml` every this many frames
+    /// Frames per segment: a checkpoint and a file to correct (`segments/NNN.toml`) every this many frames
     /// from the seed frame on.
     pub segment_len: u64,
     /// blake3 of everything the tracks depend on (see [`Manifest::config_hash`]): `resume`
@@ -61,7 +61,7 @@ pub struct Manifest {
 }
 
 /// What `run.toml` records about one segment (`[[segment]]`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SegmentRecord {
     /// The segment's first frame: the `frame` of `segments/NNN.toml`.
@@ -72,6 +72,10 @@ pub struct SegmentRecord {
     pub written: Vec<String>,
     /// blake3 of `segments/NNN.toml` when the segment was last tracked from it ("" if never).
     pub tracked_from: String,
+    /// blake3 of `segments/NNN.state`, what tracking had learnt when it reached this segment
+    /// ("" for segment 0 and the clip's last frame).
+    #[serde(default)]
+    pub state: String,
 }
 
 impl Manifest {
@@ -202,6 +206,7 @@ mod tests {
                 first_frame: 0,
                 written: vec!["ef".into()],
                 tracked_from: "ef".into(),
+                state: String::new(),
             }],
         }
     }

@@ -10,18 +10,17 @@
 //! before it shows and lasts after): on those scenarios 94 to 100 % of the joint-frames more
 //! than 10 px off are listed.
 
-use crate::run::evidence::{Evidence, Table, Thresholds, BONE, HIDDEN, JUMP, LOW, RESIDUAL, START};
+use crate::run::evidence::{Evidence, Table, Thresholds, BONE, HIDDEN, JUMP, LOW, RESIDUAL};
 use crate::run::segments::Plan;
 use std::fmt::Write as _;
 
 /// The words of the evidence bits, in bit order.
-const KIND_WORDS: [(u8, &str); 6] = [
+const KIND_WORDS: [(u8, &str); 5] = [
     (LOW, "low score"),
     (HIDDEN, "hidden"),
     (JUMP, "jump"),
     (RESIDUAL, "off its motion"),
     (BONE, "bone length"),
-    (START, "doubtful start"),
 ];
 
 /// One joint's doubts within a segment.
@@ -308,9 +307,9 @@ mod tests {
         (t, sk)
     }
 
-    fn report(t: &Table, sk: &Skeleton, starts: &[usize]) -> (Evidence, Report) {
+    fn report(t: &Table, sk: &Skeleton) -> (Evidence, Report) {
         let th = Thresholds::default();
-        let ev = evidence(t, sk, &[10.0, 10.0], &[0.0, 10.0], starts, &th);
+        let ev = evidence(t, sk, &[10.0, 10.0], &[0.0, 10.0], &th);
         let plan = Plan {
             seed_frame: 0,
             len: 10,
@@ -322,7 +321,7 @@ mod tests {
     #[test]
     fn a_still_clip_needs_no_look() {
         let (t, sk) = still(30);
-        let (ev, r) = report(&t, &sk, &[10, 20]);
+        let (ev, r) = report(&t, &sk);
         assert!(ev.mask.iter().flatten().all(|&b| b == 0));
         assert_eq!(r.segments.len(), 3);
         assert!(r.ranked().is_empty());
@@ -336,7 +335,7 @@ mod tests {
         for p in &mut t.pos[12..] {
             p[1] = Point::new(30.0, 0.0);
         }
-        let (ev, r) = report(&t, &sk, &[10, 20]);
+        let (ev, r) = report(&t, &sk);
         assert_eq!(
             ev.mask[12][1] & (JUMP | RESIDUAL | BONE),
             JUMP | RESIDUAL | BONE
@@ -362,17 +361,5 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("Segments not flagged: 000."), "{md}");
-    }
-
-    #[test]
-    fn a_restart_on_a_hidden_joint_puts_the_segment_in_doubt() {
-        let (mut t, sk) = still(30);
-        t.status[20][1] = Status::Occluded;
-        let (ev, r) = report(&t, &sk, &[10, 20]);
-        assert!(ev.mask[20..].iter().all(|m| m[1] & START != 0));
-        assert!(ev.mask[10..15].iter().all(|m| m[1] & START == 0));
-        // 0.35 on frame 20, 0.25 on the nine after: flagged.
-        assert!((r.segments[2].need - (0.35 + 9.0 * 0.25)).abs() < 1e-3);
-        assert!(!r.segments[2].flagged, "2.6 < 3: below the bar");
     }
 }

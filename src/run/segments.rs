@@ -1,7 +1,8 @@
 //! Segments (METHOD.md §2 "Segments"): the clip is cut, from the seed frame on, into segments of
-//! `segment_len` frames, and tracking restarts at each segment's first frame from
-//! `segments/NNN.toml`, a seed file (`frame =` that first frame) holding the rectangles tracked
-//! there with each joint's `angle`, `score` and `status`. The user corrects a segment by editing
+//! `segment_len` frames. Each segment's first frame gets `segments/NNN.toml`, a seed file
+//! (`frame =` that first frame) holding the rectangles tracked there with each joint's `angle`,
+//! `score` and `status`: tracking goes on through it as it was, unless the user corrects it,
+//! and then restarts there from the corrected rectangles. The user corrects a segment by editing
 //! its file; `segments/NNN.csv` holds the segment's rows of `tracks.csv` (the checkpoint).
 //!
 //! A file whose blake3 hash is not one the tool recorded in `run.toml` when it wrote it is a
@@ -46,6 +47,12 @@ impl Plan {
 /// `run_dir/segments/NNN.toml`, the seed file of segment `k`.
 pub fn file_path(run_dir: &Path, k: u64) -> PathBuf {
     run_dir.join(SEGMENTS_DIR).join(format!("{k:03}.toml"))
+}
+
+/// `run_dir/segments/NNN.state`, what tracking had learnt on reaching segment `k`
+/// ([`crate::track::Tracker::learnt_state`]).
+pub fn state_path(run_dir: &Path, k: u64) -> PathBuf {
+    run_dir.join(SEGMENTS_DIR).join(format!("{k:03}.state"))
 }
 
 /// `run_dir/segments/NNN.csv`, the tracked rows of segment `k`.
@@ -293,9 +300,9 @@ pub fn file_text(
         )
     } else {
         format!(
-            "segment {k}, from frame {first}: written by mocap2d from the tracking; tracking \
-             restarts here.\nTo correct it, move the wrong rectangles (x, y; w, h may change \
-             too) and run\n`mocap2d resume RUN --segment {k}`. \
+            "segment {k}, from frame {first}: written by mocap2d from the tracking, which goes on \
+             through here.\nTo correct it, move the wrong rectangles (x, y; w, h may change \
+             too) and run\n`mocap2d resume RUN --segment {k}`: tracking restarts here from them. \
              "
         )
     };

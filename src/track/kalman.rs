@@ -98,6 +98,26 @@ impl Ca {
         }
     }
 
+    /// Appends the filter (state, covariance, process noise) to `w` ([`super::state`]).
+    pub fn save(&self, w: &mut super::state::Writer) {
+        for v in self.s.iter().chain(self.cov.iter()).chain(self.q.iter()) {
+            w.f32(*v);
+        }
+    }
+
+    /// Reads back what [`Ca::save`] wrote.
+    pub fn load(r: &mut super::state::Reader) -> Option<Ca> {
+        let mut v = [0f32; 21];
+        for x in &mut v {
+            *x = r.f32()?;
+        }
+        Some(Ca {
+            s: Vector3::from_column_slice(&v[..3]),
+            cov: Matrix3::from_column_slice(&v[3..12]),
+            q: Matrix3::from_column_slice(&v[12..]),
+        })
+    }
+
     /// Restarts at `value` with rate `rate`, no acceleration, and standard deviations
     /// `value_sigma` and `rate_sigma`.
     pub fn reset(&mut self, value: f32, rate: f32, value_sigma: f32, rate_sigma: f32) {

@@ -32,6 +32,7 @@ pub mod pixels;
 mod redetect;
 pub mod search;
 pub mod solve;
+pub mod state;
 pub mod strip;
 mod tracker;
 

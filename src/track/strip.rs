@@ -473,6 +473,66 @@ impl Strip {
         }
     }
 
+    /// Appends what this strip has learnt since the seed frame to `out` (see
+    /// [`super::state`]): whether it is mirrored, its colour scale, typical shares and costs,
+    /// and per sample its running colour and reliability.
+    pub fn save_learnt(&self, out: &mut super::state::Writer) {
+        out.u32(self.samples.len() as u32);
+        out.u8(self.mirrored as u8);
+        out.f32(self.sigma);
+        out.f32(self.typical.0);
+        out.f32(self.typical.1);
+        for &c in &self.typical_cost {
+            out.f32(c);
+        }
+        for run in &self.running {
+            for c in run.iter().flatten() {
+                out.f32(*c);
+            }
+        }
+        for &r in &self.rel {
+            out.f32(r);
+        }
+    }
+
+    /// Reads back what [`Strip::save_learnt`] wrote, the template remade from the anchor and
+    /// the running colour with `anchor_weight`. `None` when the bytes do not fit this strip.
+    pub fn load_learnt(&mut self, r: &mut super::state::Reader, anchor_weight: f32) -> Option<()> {
+        if r.u32()? as usize != self.samples.len() {
+            return None;
+        }
+        self.mirrored = match r.u8()? {
+            0 => false,
+            1 => true,
+            _ => return None,
+        };
+        self.sigma = r.f32()?;
+        self.typical = (r.f32()?, r.f32()?);
+        for c in &mut self.typical_cost {
+            *c = r.f32()?;
+        }
+        for run in &mut self.running {
+            for c in run.iter_mut().flatten() {
+                *c = r.f32()?;
+            }
+        }
+        for rel in &mut self.rel {
+            *rel = r.f32()?;
+        }
+        for k in 0..self.samples.len() {
+            if self.samples[k].background {
+                continue;
+            }
+            for lv in 0..MAX_LEVELS {
+                for ch in 0..3 {
+                    self.template[k][lv][ch] = anchor_weight * self.anchor[k][lv][ch]
+                        + (1.0 - anchor_weight) * self.running[k][lv][ch];
+                }
+            }
+        }
+        Some(())
+    }
+
     /// Whether `fit` looks like this bone found: at least `share` of what fits on a frame where
     /// it is seen (its [`Strip::typical`] shares), at its child end and, unless `parent_hidden`,
     /// overall.

@@ -44,7 +44,7 @@ pub struct Tracker {
     /// The last frame's intermediate results, when asked for (see [`Tracker::trace`]).
     trace: Option<Trace>,
     /// Time spent in each part of [`Tracker::step`] so far.
-    timings: Timings,
+    pub(super) timings: Timings,
 }
 
 /// Time (seconds) spent in each part of [`Tracker::step`] over all frames so far, for the
