@@ -63,8 +63,11 @@ pub struct TrackParams {
     /// Colour distance (levels, RGB) within which a seed pixel shared by two bones' strips is
     /// taken for the other bone's (see `Strip::doubt_foreign`); 0 turns this off.
     pub foreign_tolerance: f32,
-    /// How a limb's width follows its length, ×(L₀/L)^γ: 0 keeps it (real limbs), 0.5 is a
-    /// cartoon squash-and-stretch, 1 keeps the area in the image.
+    /// How a limb's width follows its length, ×(L₀/L)^γ: 0 keeps it, 0.5 is a cartoon
+    /// squash-and-stretch, 1 keeps the area in the image. Default 0.5: measured against 0
+    /// (PCK@5, 640×360), the 15 short synth clips (5 scenarios × seeds 1–3) 96.0 vs 93.8 %
+    /// mean, `long` seeds 1–5 86.5 vs 79.1 % mean (with `redetect_share` 0.2), flies 70.8 vs
+    /// 70.4 %.
     pub width_exponent: f32,
     /// Most samples per bone.
     pub max_samples: usize,
@@ -118,7 +121,10 @@ pub struct TrackParams {
     pub redetect_after: u32,
     pub redetect_every: u32,
     /// A body found again over the whole frame is taken when its root's evidence (share of
-    /// fitting samples near it) is at least this.
+    /// fitting samples near it) is at least this. After a turn the far and near limbs trade
+    /// places, so a body found where it is fits only 0.2–0.3 around the root: on `long` seeds
+    /// 1–5, 0.2 gives 86.5 % mean PCK@5, 0.3 85.7 %, 0.4 79.0 % (one seed lost for 300
+    /// frames).
     pub redetect_share: f32,
 }
 
@@ -148,7 +154,7 @@ impl Default for TrackParams {
             root_reach: 1.0,
             joint_reach: 1.0,
             edge_margin_px: 2.0,
-            width_exponent: 0.0,
+            width_exponent: 0.5,
             foreign_tolerance: 20.0,
             max_samples: 256,
             coarse_samples: 48,
@@ -172,7 +178,7 @@ impl Default for TrackParams {
             lost_after_frames: 30,
             redetect_after: 8,
             redetect_every: 4,
-            redetect_share: 0.4,
+            redetect_share: 0.2,
         }
     }
 }
