@@ -3,10 +3,13 @@
 //! Each clip gets the run folder `mocap2d track` would make (and, with a target character,
 //! what `retarget` and `render` would add), through the same library calls. A clip that fails
 //! is reported and the others go on; a clip whose work is already done for the same inputs is
-//! skipped ([`skip`]). Clips run side by side on a rayon pool of `jobs` threads; each clip's
-//! own stages run in a pool of `cores / jobs` threads (at least one), and FFmpeg's decoders get
-//! as many, so the batch never asks for much more than the machine's cores. Outputs do not
-//! depend on `jobs`: every stage is deterministic and each clip writes only its own folder.
+//! skipped ([`skip`]), one whose tracking was interrupted is resumed from its checkpoint.
+//! Ctrl-C stops the batch: no further clip starts and the running ones stop at their next
+//! frame ([`Status::Interrupted`]). Clips run side by side on a rayon pool of `jobs` threads;
+//! each clip's own stages run in a pool of `cores / jobs` threads (at least one), and FFmpeg's
+//! decoders get as many, so the batch never asks for much more than the machine's cores.
+//! Outputs do not depend on `jobs`: every stage is deterministic and each clip writes only its
+//! own folder.
 //!
 //! Scale-out: `shard` gives one worker every n-th clip of the sorted list, so the workers of a
 //! Slurm array or a Kubernetes indexed Job split a batch with no coordinator.
@@ -59,8 +62,13 @@ pub trait BatchProgress: Sync {
     fn begin(&self, _clips: usize) {}
     /// A clip starts; its stages report to the returned [`Progress`].
     fn clip_started(&self, clip: &Path) -> Box<dyn Progress + '_>;
-    /// A clip ended (done, skipped or failed).
+    /// A clip ended (done, skipped, failed or interrupted).
     fn clip_finished(&self, _outcome: &ClipOutcome) {}
+    /// True once the user asked the batch to stop (Ctrl-C): no further clip starts. Running
+    /// clips stop when their [`Progress::advance`] returns `false`.
+    fn stopped(&self) -> bool {
+        false
+    }
 }
 
 /// Reports nothing.
@@ -141,7 +149,9 @@ pub fn run_dir_for(clip: &Path, out_dir: Option<&Path>) -> PathBuf {
 
 /// Runs the plan's clips, `opts.jobs` at a time, and returns one outcome per clip in the plan's
 /// order. Fails only on what concerns every clip (the target character file, the thread
-/// pool); a clip's own failure is its outcome.
+/// pool); a clip's own failure is its outcome. Once `progress` says the batch is
+/// [stopped](BatchProgress::stopped), no clip starts and the outcomes are those of the clips
+/// that did (see [`summary::interrupted`]).
 pub fn run(
     opts: &BatchOptions,
     plan: &Plan,
@@ -178,6 +188,9 @@ pub fn run(
             .build()
             .map_err(pool_err)?;
         loop {
+            if progress.stopped() {
+                return Ok(());
+            }
             let k = next.fetch_add(1, Ordering::SeqCst);
             let Some((clip, run_dir)) = plan.clips.get(k) else {
                 return Ok(());
@@ -218,6 +231,10 @@ fn process_clip(
     }));
     let failure = match run {
         Ok(Ok(())) => None,
+        Ok(Err(Error::Interrupted)) => {
+            outcome.status = Status::Interrupted;
+            None
+        }
         Ok(Err(e)) => Some((one_line(&e), e.is_user_error())),
         Err(panic) => {
             let what = panic
@@ -241,8 +258,8 @@ fn process_clip(
     outcome
 }
 
-/// Track (unless finished for the same inputs), then retarget and render when asked (unless
-/// finished), filling in `outcome` as it goes.
+/// Track (unless finished for the same inputs; an unfinished run of them is resumed), then
+/// retarget and render when asked (unless finished), filling in `outcome` as it goes.
 fn stages(
     opts: &BatchOptions,
     clip: &Path,
@@ -265,9 +282,28 @@ fn stages(
         }
         None => {
             let start = Instant::now();
-            let s = app::track(&track, progress)?;
+            // An interrupted run carries on from its checkpoint; its speed is not measured.
+            let resumed = match skip::unfinished_track(run_dir, &track) {
+                Some(_) => app::resume(
+                    &app::ResumeOptions {
+                        run: run_dir.to_owned(),
+                        segment: None,
+                        clip: Some(clip.to_owned()),
+                        params: Some(opts.params.clone()),
+                    },
+                    progress,
+                )?,
+                None => None,
+            };
+            let fresh = resumed.is_none();
+            let s = match resumed {
+                Some(s) => s,
+                None => app::track(&track, progress)?,
+            };
             outcome.frames = Some(s.tracked_frames);
-            outcome.track_seconds = Some(start.elapsed().as_secs_f64());
+            if fresh {
+                outcome.track_seconds = Some(start.elapsed().as_secs_f64());
+            }
             outcome.status = Status::Done;
             true
         }

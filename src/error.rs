@@ -4,6 +4,9 @@
 
 use std::path::PathBuf;
 
+/// Exit code after an interruption (Ctrl-C, SIGTERM): 128 + SIGINT, as shells report it.
+pub const EXIT_INTERRUPTED: u8 = 130;
+
 /// Result alias for the crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 

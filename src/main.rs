@@ -6,6 +6,7 @@ use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mocap2d::app;
 use mocap2d::batch::{BatchProgress, ClipOutcome, Status};
 use mocap2d::cli::{BatchArgs, Cli, Command};
+use mocap2d::error::EXIT_INTERRUPTED;
 use mocap2d::progress::Progress;
 use std::io::IsTerminal;
 use std::path::Path;
@@ -19,9 +20,6 @@ static STOP: AtomicBool = AtomicBool::new(false);
 /// Set once work that polls [`STOP`] has started (its first progress stage); until then a Ctrl-C
 /// exits at once (quick commands never poll, and their files are written atomically anyway).
 static POLLED: AtomicBool = AtomicBool::new(false);
-
-/// Exit code after an interruption: 128 + SIGINT, as shells report it.
-const EXIT_INTERRUPTED: u8 = 130;
 
 /// The first Ctrl-C asks the work to stop at its next frame and leave its output consistent;
 /// a second one exits at once (output files are written through temp files, so even then no
@@ -108,7 +106,12 @@ fn style(template: &str) -> ProgressStyle {
 
 impl BatchProgress for BatchBars {
     fn begin(&self, clips: usize) {
+        // From here on a Ctrl-C stops the batch cleanly (see `stopped`).
+        POLLED.store(true, Ordering::SeqCst);
         self.total.set_length(clips as u64);
+    }
+    fn stopped(&self) -> bool {
+        STOP.load(Ordering::SeqCst)
     }
     fn clip_started(&self, clip: &Path) -> Box<dyn Progress + '_> {
         let name = clip.file_name().unwrap_or(clip.as_os_str());
@@ -154,7 +157,7 @@ impl Progress for ClipBar<'_> {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
             b.inc(n);
         }
-        true
+        !STOP.load(Ordering::SeqCst)
     }
     fn finish(&self) {
         if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
@@ -171,7 +174,8 @@ impl Drop for ClipBar<'_> {
 }
 
 /// `mocap2d batch`: plan, run, print the table (stdout), write the CSV; the exit code says
-/// whether any clip failed (see [`mocap2d::batch::exit_code`]).
+/// whether any clip failed (see [`mocap2d::batch::exit_code`]). Interrupted by Ctrl-C: one line
+/// saying how far it got, no table and no CSV, exit code 130.
 fn batch(a: BatchArgs, bars_on: bool) -> mocap2d::Result<ExitCode> {
     let opts = mocap2d::batch::BatchOptions {
         inputs: a.inputs.clone(),
@@ -200,6 +204,10 @@ fn batch(a: BatchArgs, bars_on: bool) -> mocap2d::Result<ExitCode> {
     let bars = BatchBars::new(bars_on);
     let outcomes = mocap2d::batch::run(&opts, &plan, &bars)?;
     bars.total.finish_and_clear();
+    if let Some(msg) = mocap2d::batch::summary::interrupted(&outcomes, plan.clips.len()) {
+        eprintln!("mocap2d: {msg}");
+        return Ok(ExitCode::from(EXIT_INTERRUPTED));
+    }
     print!("{}", mocap2d::batch::summary::table(&outcomes));
     if let Some(dir) = summary_path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| mocap2d::Error::io(dir, e))?;

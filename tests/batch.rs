@@ -1,10 +1,12 @@
 //! `mocap2d batch` end to end with the real binary on tiny synthetic clips (160x120, 30
-//! frames): run folders, a failing clip among good ones, re-runs skipping finished clips,
-//! output independent of --jobs, and shards covering the batch once.
+//! frames; 300 for Ctrl-C): run folders, a failing clip among good ones, re-runs skipping
+//! finished clips, output independent of --jobs, shards covering the batch once, and Ctrl-C
+//! stopping the batch cleanly for a re-run to finish.
 #![cfg(feature = "ffmpeg")]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 /// A temp dir holding `shots/cN.mp4` with `shots/cN.toml` seed files.
 struct Shots {
@@ -12,8 +14,13 @@ struct Shots {
 }
 
 impl Shots {
-    /// `good` synthetic walks with their seed files, from different motion seeds.
+    /// `good` synthetic walks of 30 frames with their seed files, from different motion seeds.
     fn new(good: u64) -> Shots {
+        Shots::with_frames(good, 30)
+    }
+
+    /// `good` synthetic walks of `frames` frames (160x120) with their seed files.
+    fn with_frames(good: u64, frames: u32) -> Shots {
         let tmp = tempfile::tempdir().unwrap();
         let shots = tmp.path().join("shots");
         std::fs::create_dir(&shots).unwrap();
@@ -26,7 +33,7 @@ impl Shots {
                 "--size",
                 "160x120",
                 "--frames",
-                "30",
+                &frames.to_string(),
                 "--seed",
                 &i.to_string(),
                 "--out",
@@ -55,10 +62,49 @@ impl Shots {
     }
 
     fn batch(&self, extra: &[&str]) -> Output {
-        let mut args = vec!["batch", "shots", "--seeds", "{dir}/{stem}.toml"];
-        args.extend_from_slice(extra);
-        self.run(&args)
+        self.run(&batch_args(extra))
     }
+
+    /// Starts `mocap2d batch ... EXTRA -q`, waits until `started()` says the work is under way
+    /// (a file it writes appeared), sends SIGINT, and returns its output and how long it took
+    /// to exit after the signal. `None` if it finished first.
+    fn interrupt(&self, extra: &[&str], started: impl Fn() -> bool) -> Option<(Output, Duration)> {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+            .args(batch_args(extra))
+            .arg("-q")
+            .current_dir(self.tmp.path())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let t = Instant::now();
+        while !started() && t.elapsed() < Duration::from_secs(120) {
+            if child.try_wait().unwrap().is_some() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let pid = child.id().to_string();
+        let sent = Instant::now();
+        let killed = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+        let o = child.wait_with_output().unwrap();
+        let took = sent.elapsed();
+        if !killed.success() || o.status.code() == Some(0) {
+            eprintln!(
+                "finished before SIGINT: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            return None;
+        }
+        Some((o, took))
+    }
+}
+
+/// `batch shots --seeds {dir}/{stem}.toml EXTRA`.
+fn batch_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec!["batch", "shots", "--seeds", "{dir}/{stem}.toml"];
+    args.extend_from_slice(extra);
+    args
 }
 
 fn assert_exit(o: &Output, code: i32) {
@@ -258,4 +304,125 @@ fn batch_wide_mistakes_stop_before_any_work() {
     }
     assert!(!s.path("shots/a.mocap").exists());
     assert!(!s.path("batch-summary.csv").exists());
+}
+
+/// `(complete, tracked_segments)` of a run folder's `run.toml`.
+fn checkpoint(run: &Path) -> (bool, u64) {
+    let m = mocap2d::run::Manifest::read(&run.join("run.toml")).unwrap();
+    (m.complete, m.tracked_segments)
+}
+
+/// Temp files (`*.tmp`) anywhere under `dir`.
+fn temp_files(dir: &Path) -> Vec<String> {
+    files(dir)
+        .into_iter()
+        .map(|f| f.0)
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+/// After a Ctrl-C: every run folder under `out` is finished (the same files as `whole`'s),
+/// not started, or an unfinished checkpoint (no `tracks.csv`, the rows of every tracked
+/// segment); returns how many are unfinished.
+fn assert_consistent(out: &Path, whole: &Path) -> usize {
+    assert!(temp_files(out).is_empty(), "{:?}", temp_files(out));
+    let mut unfinished = 0;
+    for c in ["c1", "c2", "c3"] {
+        let run = out.join(format!("{c}.mocap"));
+        if !run.exists() {
+            continue;
+        }
+        match checkpoint(&run) {
+            (true, _) => assert_eq!(files(&run), files(&whole.join(format!("{c}.mocap")))),
+            (false, k) => {
+                unfinished += 1;
+                assert!(!run.join("tracks.csv").exists(), "{c}");
+                for k in 0..k {
+                    assert!(
+                        run.join(format!("segments/{k:03}.csv")).is_file(),
+                        "{c}: {k}"
+                    );
+                }
+            }
+        }
+    }
+    unfinished
+}
+
+#[test]
+fn ctrl_c_stops_the_batch_cleanly_and_a_rerun_finishes_it() {
+    // 300 frames: two segments of 150; the signal goes once a clip's first one is checkpointed.
+    let s = Shots::with_frames(3, 300);
+    assert_exit(&s.batch(&["--jobs", "2", "--out-dir", "whole"]), 0);
+    let whole = s.path("whole");
+    let same_as_whole = |out: &Path| {
+        for c in ["c1", "c2", "c3"] {
+            let run = format!("{c}.mocap");
+            assert!(
+                files(&out.join(&run)) == files(&whole.join(&run)),
+                "{c}: differs from the uninterrupted batch's"
+            );
+        }
+    };
+
+    // One clip at a time, Ctrl-C in the second: the first is finished and intact, the second
+    // keeps its checkpoint, the third never starts.
+    let cut = s.path("cut");
+    let c2_first = cut.join("c2.mocap/segments/000.csv");
+    let (o, took) = s
+        .interrupt(&["--jobs", "1", "--out-dir", "cut"], || c2_first.exists())
+        .expect("SIGINT while tracking c2");
+    eprintln!("--jobs 1: exited {took:?} after SIGINT");
+    assert_exit(&o, 130);
+    assert!(
+        took < Duration::from_secs(5),
+        "exit took {took:?} after SIGINT"
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains(
+            "mocap2d: batch interrupted: 1 of 3 clips done, stopped part-way: shots/c2.mp4, 1 \
+             not started; no file was left half-written; run the same command again"
+        ),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(stdout(&o), "", "no table for an interrupted batch");
+    assert!(!cut.join("batch-summary.csv").exists());
+    assert_eq!(assert_consistent(&cut, &whole), 1);
+    assert_eq!(checkpoint(&cut.join("c2.mocap")), (false, 1));
+    assert!(!cut.join("c3.mocap").exists());
+    // The re-run skips c1, resumes c2 from its checkpoint (segment 0's rows stay as they
+    // were) and tracks c3: the run folders of the uninterrupted batch.
+    let mtime = |p: &Path| std::fs::metadata(p).unwrap().modified().unwrap();
+    let first_rows = mtime(&c2_first);
+    let o = s.batch(&["--jobs", "1", "--out-dir", "cut"]);
+    assert_exit(&o, 0);
+    assert_eq!(status(&o, "shots/c1.mp4"), "skipped");
+    assert_eq!(status(&o, "shots/c2.mp4"), "done");
+    assert_eq!(status(&o, "shots/c3.mp4"), "done");
+    assert_eq!(
+        mtime(&c2_first),
+        first_rows,
+        "c2 was tracked again, not resumed"
+    );
+    same_as_whole(&cut);
+
+    // Two at a time: both running clips stop at their next frame.
+    let two = s.path("two");
+    let c1_first = two.join("c1.mocap/segments/000.csv");
+    let (o, took) = s
+        .interrupt(&["--jobs", "2", "--out-dir", "two"], || c1_first.exists())
+        .expect("SIGINT while tracking c1 and c2");
+    eprintln!("--jobs 2: exited {took:?} after SIGINT");
+    assert_exit(&o, 130);
+    assert!(
+        took < Duration::from_secs(5),
+        "exit took {took:?} after SIGINT"
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("stopped part-way: shots/c1.mp4"), "{err}");
+    assert!(assert_consistent(&two, &whole) >= 1);
+    assert_exit(&s.batch(&["--jobs", "2", "--out-dir", "two"]), 0);
+    same_as_whole(&two);
 }

@@ -1,13 +1,12 @@
 //! The run folder under stress: missing or edited files, a folder of another clip, a read-only
 //! or full disk (a small tmpfs, mounted when the test may: root in a container that allows it),
-//! a stale temp file from a crash, and Ctrl-C (SIGINT) during `track` and `render`. Every case
-//! gives a clear error (exit 2 when the user can fix it, 1 otherwise, 130 when interrupted) and
-//! leaves no half-written file and no temp file.
+//! and a stale temp file from a crash. Every case gives a clear error (exit 2 when the user can
+//! fix it, 1 otherwise) and leaves no half-written file and no temp file. Ctrl-C is in
+//! `tests/signals.rs`.
 #![cfg(feature = "ffmpeg")]
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
 
 fn walk(file: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -387,117 +386,4 @@ fn full_disk_is_a_clear_error_with_nothing_half_written() {
             .all(|p| before.contains(p) || p.is_file() && std::fs::metadata(p).unwrap().len() > 0));
     }
     assert!(temp_files(&full.0).is_empty(), "{:?}", temp_files(&full.0));
-}
-
-// ---------------------------------------------------------------------- signals
-
-/// The sample clip looped `times` times (remuxed, not re-encoded) into `path`.
-fn long_clip(path: &Path, times: u32) {
-    let o = Command::new("ffmpeg")
-        .args([
-            "-v",
-            "error",
-            "-y",
-            "-stream_loop",
-            &(times - 1).to_string(),
-            "-i",
-        ])
-        .arg(walk("clip.mp4"))
-        .args(["-c", "copy"])
-        .arg(path)
-        .output()
-        .expect("the ffmpeg command (scripts/setup installs it)");
-    assert!(o.status.success(), "{}", stderr(&o));
-}
-
-/// Starts `mocap2d ARGS`, waits until `started()` says the work is under way (a file it writes
-/// appeared), sends SIGINT, and returns its output and how long it took to exit after the signal.
-/// `None` if it finished first.
-fn interrupt(args: &[&str], started: impl Fn() -> bool) -> Option<(Output, Duration)> {
-    let mut child = bin()
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t = Instant::now();
-    while !started() && t.elapsed() < Duration::from_secs(120) {
-        if child.try_wait().unwrap().is_some() {
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let pid = child.id().to_string();
-    let sent = Instant::now();
-    let killed = Command::new("kill").args(["-INT", &pid]).status().unwrap();
-    let o = child.wait_with_output().unwrap();
-    let took = sent.elapsed();
-    if !killed.success() || o.status.code() == Some(0) {
-        eprintln!("finished before SIGINT: {}", stderr(&o));
-        return None;
-    }
-    Some((o, took))
-}
-
-#[test]
-fn sigint_during_track_and_render_stops_promptly_and_cleanly() {
-    let dir = tempfile::tempdir().unwrap();
-    let clip = dir.path().join("long.mp4");
-    long_clip(&clip, 10); // 600 frames
-    let out = dir.path().join("long.mocap");
-    let seeds = walk("joints.toml");
-    let args = ["track", s(&clip), "--seeds", s(&seeds), "--out", s(&out)];
-    let first = out.join("segments").join("000.toml");
-    let (o, took) = interrupt(&args, || first.exists()).expect("SIGINT while tracking");
-    assert_fails(&o, 130, &["interrupted"]);
-    assert!(
-        took < Duration::from_secs(3),
-        "exit took {took:?} after SIGINT"
-    );
-    // Nothing half-written: the folder this run made is gone, or holds only whole files.
-    assert!(
-        temp_files(dir.path()).is_empty(),
-        "{:?}",
-        temp_files(dir.path())
-    );
-    assert!(!out.join("tracks.csv").exists() || out.join("run.toml").exists());
-    // The checkpoint is kept: `resume` finishes the run.
-    if out.join("run.toml").exists() {
-        assert_ok(&run(&["resume", s(&out)]));
-        assert!(out.join("tracks.csv").exists());
-    }
-
-    // Render: a full run of the long clip, then Ctrl-C mid-render.
-    assert_ok(&run(&args));
-    assert_ok(&run(&["retarget", s(&out), "--target", s(&robot())]));
-    let video = dir.path().join("robot.mp4");
-    let frames = dir.path().join("frames");
-    let target = robot();
-    let args = [
-        "render",
-        s(&out),
-        "--target",
-        s(&target),
-        "--out",
-        s(&video),
-        "--frames-dir",
-        s(&frames),
-    ];
-    let drawn = || std::fs::read_dir(&frames).is_ok_and(|mut d| d.next().is_some());
-    let (o, took) = interrupt(&args, drawn).expect("SIGINT while rendering");
-    assert_fails(&o, 130, &["interrupted"]);
-    assert!(
-        took < Duration::from_secs(3),
-        "exit took {took:?} after SIGINT"
-    );
-    assert!(!video.exists(), "a half video was left");
-    assert!(
-        !frames.exists(),
-        "frames of an interrupted render were left"
-    );
-    assert!(
-        temp_files(dir.path()).is_empty(),
-        "{:?}",
-        temp_files(dir.path())
-    );
 }

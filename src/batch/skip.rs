@@ -1,24 +1,38 @@
 //! Is a clip's work already done for the same inputs? A re-run of a batch (after a crash, or
 //! with more clips) skips what its run folders show finished.
 //!
-//! `track` writes `tracks.csv`, then `seeds.toml`, then `run.toml`, each atomically, so a
-//! `run.toml` beside a `tracks.csv` means the run finished; `run.toml` says with what inputs.
-//! `retarget` likewise writes `retarget.toml` last, recording the target file's and the
-//! tracks' hashes.
+//! `track` writes `seeds.toml` and `run.toml` first, then checkpoints every segment, and
+//! joins `tracks.csv` and marks `run.toml` complete last, each file atomically: a complete
+//! `run.toml` beside a `tracks.csv` means the run finished, an incomplete one is a checkpoint
+//! that `resume` carries on from (a batch interrupted by Ctrl-C, or killed); `run.toml` says
+//! with what inputs. `retarget` writes `retarget.toml` last, recording the target file's and
+//! the tracks' hashes.
 
 use crate::app::{TrackOptions, RETARGET_DIR};
 use crate::run::{hash_clip, Manifest};
 use std::path::Path;
 
-/// The finished run in `run_dir`, when it was tracked by this version of mocap2d from a clip
-/// with the same content (size and blake3), a seed file with the same bytes, the same
-/// parameters, the same kind of background model (median or none) and the same frame rate,
-/// and its `tracks.csv` is there. `None` whenever any of that differs or cannot be read (the
-/// clip is then tracked again, which reports any real problem).
+/// The finished run in `run_dir`: complete, with its `tracks.csv`, for the same inputs (see
+/// [`same_inputs`]).
 pub fn finished_track(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {
     if !run_dir.join("tracks.csv").is_file() {
         return None;
     }
+    same_inputs(run_dir, opts).filter(|m| m.complete)
+}
+
+/// The unfinished run in `run_dir` (stopped by Ctrl-C, a kill or a crash) for the same inputs
+/// (see [`same_inputs`]): `resume` carries it on from its last checkpoint.
+pub fn unfinished_track(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {
+    same_inputs(run_dir, opts).filter(|m| !m.complete)
+}
+
+/// The manifest of the run in `run_dir`, when it was tracked by this version of mocap2d from a
+/// clip with the same content (size and blake3), a seed file with the same bytes, the same
+/// parameters, the same kind of background model (median or none) and the same frame rate.
+/// `None` whenever any of that differs or cannot be read (the clip is then tracked again, which
+/// reports any real problem).
+fn same_inputs(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {
     let m = Manifest::read(&run_dir.join("run.toml")).ok()?;
     let background_same = if opts.no_background {
         m.background == "none"

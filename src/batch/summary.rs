@@ -13,6 +13,9 @@ pub enum Status {
     /// A stage failed; `message` is the error on one line, `user_error` whether the user can fix
     /// it (bad seeds, an undecodable clip: exit code 2) or not (exit code 1).
     Failed { message: String, user_error: bool },
+    /// Stopped part-way by Ctrl-C (or SIGTERM): its run folder holds a checkpoint (or, in
+    /// `render`, no video), and a re-run of the batch carries it on.
+    Interrupted,
 }
 
 impl Status {
@@ -22,6 +25,7 @@ impl Status {
             Status::Done => "done",
             Status::Skipped => "skipped",
             Status::Failed { .. } => "failed",
+            Status::Interrupted => "interrupted",
         }
     }
 }
@@ -57,9 +61,12 @@ pub fn flagged_segments_hook(run_dir: &Path) -> Option<usize> {
     crate::app::report(run_dir).ok().map(|r| r.ranked().len())
 }
 
-/// The exit code a batch ends with: 0 if no clip failed, 2 if every failure is one the user
-/// can fix (see [`Error::is_user_error`]), else 1.
+/// The exit code a batch ends with: 130 if it was interrupted, 0 if no clip failed, 2 if every
+/// failure is one the user can fix (see [`Error::is_user_error`]), else 1.
 pub fn exit_code(outcomes: &[ClipOutcome]) -> u8 {
+    if outcomes.iter().any(|o| o.status == Status::Interrupted) {
+        return crate::error::EXIT_INTERRUPTED;
+    }
     let failures: Vec<bool> = outcomes
         .iter()
         .filter_map(|o| match &o.status {
@@ -72,6 +79,38 @@ pub fn exit_code(outcomes: &[ClipOutcome]) -> u8 {
         false if failures.iter().all(|&u| u) => 2,
         false => 1,
     }
+}
+
+/// When Ctrl-C stopped the batch (a clip was interrupted, or fewer than the `planned` clips
+/// ran): one line saying how far it got and how to finish it.
+pub fn interrupted(outcomes: &[ClipOutcome], planned: usize) -> Option<String> {
+    let count = |w: &str| outcomes.iter().filter(|o| o.status.word() == w).count();
+    let stopped: Vec<String> = outcomes
+        .iter()
+        .filter(|o| o.status == Status::Interrupted)
+        .map(|o| o.clip.display().to_string())
+        .collect();
+    let not_started = planned.saturating_sub(outcomes.len());
+    if stopped.is_empty() && not_started == 0 {
+        return None;
+    }
+    let done = count("done") + count("skipped");
+    let mut parts = vec![format!("{done} of {planned} clips done")];
+    match count("failed") {
+        0 => {}
+        n => parts.push(format!("{n} failed")),
+    }
+    if !stopped.is_empty() {
+        parts.push(format!("stopped part-way: {}", stopped.join(", ")));
+    }
+    if not_started > 0 {
+        parts.push(format!("{not_started} not started"));
+    }
+    Some(format!(
+        "batch interrupted: {}; no file was left half-written; run the same command again to \
+         finish (done clips are skipped, stopped ones resume from their last checkpoint)",
+        parts.join(", ")
+    ))
 }
 
 fn has_segments(outcomes: &[ClipOutcome]) -> bool {
@@ -200,6 +239,26 @@ mod tests {
         assert_eq!(exit_code(&[ok.clone(), outcome("b", failed(true))]), 2);
         let both = [outcome("b", failed(true)), outcome("c", failed(false))];
         assert_eq!(exit_code(&both), 1);
+        let cut = [
+            outcome("b", failed(false)),
+            outcome("c", Status::Interrupted),
+        ];
+        assert_eq!(exit_code(&cut), 130);
+    }
+
+    #[test]
+    fn an_interrupted_batch_says_how_far_it_got() {
+        let all = [outcome("a", Status::Done), outcome("b", Status::Skipped)];
+        assert_eq!(interrupted(&all, 2), None);
+        let msg = interrupted(&all, 4).unwrap();
+        assert!(msg.starts_with("batch interrupted: 2 of 4 clips done, 2 not started;"));
+        let cut = [
+            outcome("a", failed(true)),
+            outcome("b", Status::Interrupted),
+        ];
+        let msg = interrupted(&cut, 2).unwrap();
+        assert!(msg.contains("0 of 2 clips done, 1 failed, stopped part-way: b;"));
+        assert!(msg.contains("run the same command again"));
     }
 
     #[test]
