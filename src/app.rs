@@ -417,7 +417,7 @@ pub fn report(run_dir: &Path) -> Result<crate::run::report::Report> {
             ),
         });
     }
-    Ok(segmented::build_report(run_dir, &manifest, &base)?.1)
+    Ok(crate::run::report::for_run(run_dir, &manifest, &base)?.1)
 }
 
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines

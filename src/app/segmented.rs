@@ -26,15 +26,14 @@
 use crate::background::Background;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::run::evidence::{evidence, Table, Thresholds};
+use crate::run::evidence::Table;
 use crate::run::report::Report;
 use crate::run::segments::{self, file_text, Plan, Start};
-use crate::run::tracks::read_tracks;
 use crate::run::{Manifest, SegmentRecord};
 use crate::seed::Seeds;
 use crate::track::{gapfill::GapFiller, JointEstimate, TrackParams, Tracker};
 use image::RgbImage;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Everything a segmented run needs besides the frames.
 pub struct Session {
@@ -524,7 +523,7 @@ impl Session {
 
     /// The report on the run's `tracks.csv`.
     pub fn report(&self) -> Result<(Table, Report)> {
-        build_report(&self.run_dir, &self.manifest, &self.base)
+        crate::run::report::for_run(&self.run_dir, &self.manifest, &self.base)
     }
 }
 
@@ -533,31 +532,4 @@ fn written_angles(est: &[JointEstimate]) -> Vec<f32> {
     est.iter()
         .map(|e| format!("{:.4}", e.angle_rad).parse().unwrap_or(e.angle_rad))
         .collect()
-}
-
-/// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`.
-pub fn build_report(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Table, Report)> {
-    let rows = read_tracks(&run_dir.join("tracks.csv"))?;
-    let table = Table::from_rows(&rows, base.joints.len());
-    let plan = Plan {
-        seed_frame: manifest.seed_frame,
-        len: manifest.segment_len,
-    };
-    let sk = &base.skeleton;
-    let boxes = base.boxes();
-    let sides: Vec<f32> = boxes.iter().map(|b| 0.5 * (b.w + b.h) as f32).collect();
-    let seed_len: Vec<f32> = (0..sk.len())
-        .map(|j| sk.parents[j].map_or(0.0, |p| (boxes[j].centre() - boxes[p].centre()).norm()))
-        .collect();
-    let mut corrected = Vec::new();
-    for (k, rec) in manifest.segment.iter().enumerate() {
-        let h = segments::hash_file(&segments::file_path(run_dir, k as u64))?;
-        corrected.push(h.is_some_and(|h| !rec.written.contains(&h)));
-    }
-    let th = Thresholds::default();
-    let ev = evidence(&table, sk, &sides, &seed_len, &th);
-    let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
-    let files = manifest.segment.len() as u64;
-    let report = Report::build(&table, &ev, &names, &plan, &corrected, files, &th);
-    Ok((table, report))
 }

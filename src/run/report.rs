@@ -10,9 +10,16 @@
 //! before it shows and lasts after): on those scenarios 94 to 100 % of the joint-frames more
 //! than 10 px off are listed.
 
-use crate::run::evidence::{Evidence, Table, Thresholds, BONE, HIDDEN, JUMP, LOW, RESIDUAL};
-use crate::run::segments::Plan;
+use crate::error::Result;
+use crate::run::evidence::{
+    evidence, Evidence, Table, Thresholds, BONE, HIDDEN, JUMP, LOW, RESIDUAL,
+};
+use crate::run::segments::{self, Plan};
+use crate::run::tracks::read_tracks;
+use crate::run::Manifest;
+use crate::seed::Seeds;
 use std::fmt::Write as _;
+use std::path::Path;
 
 /// The words of the evidence bits, in bit order.
 const KIND_WORDS: [(u8, &str); 5] = [
@@ -282,6 +289,33 @@ impl Report {
         }
         s
     }
+}
+
+/// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`.
+pub fn for_run(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Table, Report)> {
+    let rows = read_tracks(&run_dir.join("tracks.csv"))?;
+    let table = Table::from_rows(&rows, base.joints.len());
+    let plan = Plan {
+        seed_frame: manifest.seed_frame,
+        len: manifest.segment_len,
+    };
+    let sk = &base.skeleton;
+    let boxes = base.boxes();
+    let sides: Vec<f32> = boxes.iter().map(|b| 0.5 * (b.w + b.h) as f32).collect();
+    let seed_len: Vec<f32> = (0..sk.len())
+        .map(|j| sk.parents[j].map_or(0.0, |p| (boxes[j].centre() - boxes[p].centre()).norm()))
+        .collect();
+    let mut corrected = Vec::new();
+    for (k, rec) in manifest.segment.iter().enumerate() {
+        let h = segments::hash_file(&segments::file_path(run_dir, k as u64))?;
+        corrected.push(h.is_some_and(|h| !rec.written.contains(&h)));
+    }
+    let th = Thresholds::default();
+    let ev = evidence(&table, sk, &sides, &seed_len, &th);
+    let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
+    let files = manifest.segment.len() as u64;
+    let report = Report::build(&table, &ev, &names, &plan, &corrected, files, &th);
+    Ok((table, report))
 }
 
 #[cfg(test)]
