@@ -4,9 +4,11 @@
 //! stopping the batch cleanly for a re-run to finish.
 #![cfg(feature = "ffmpeg")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output};
+use std::time::Duration;
 
 /// A temp dir holding `shots/cN.mp4` with `shots/cN.toml` seed files.
 struct Shots {
@@ -69,34 +71,11 @@ impl Shots {
     /// (a file it writes appeared), sends SIGINT, and returns its output and how long it took
     /// to exit after the signal. `None` if it finished first.
     fn interrupt(&self, extra: &[&str], started: impl Fn() -> bool) -> Option<(Output, Duration)> {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-            .args(batch_args(extra))
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_mocap2d"));
+        cmd.args(batch_args(extra))
             .arg("-q")
-            .current_dir(self.tmp.path())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let t = Instant::now();
-        while !started() && t.elapsed() < Duration::from_secs(120) {
-            if child.try_wait().unwrap().is_some() {
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        let pid = child.id().to_string();
-        let sent = Instant::now();
-        let killed = Command::new("kill").args(["-INT", &pid]).status().unwrap();
-        let o = child.wait_with_output().unwrap();
-        let took = sent.elapsed();
-        if !killed.success() || o.status.code() == Some(0) {
-            eprintln!(
-                "finished before SIGINT: {}",
-                String::from_utf8_lossy(&o.stderr)
-            );
-            return None;
-        }
-        Some((o, took))
+            .current_dir(self.tmp.path());
+        common::interrupt(cmd, started)
     }
 }
 

@@ -6,71 +6,10 @@
 #![cfg(feature = "ffmpeg")]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 
-fn walk(file: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("clips/walk")
-        .join(file)
-}
-
-fn robot() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/characters/robot.toml")
-}
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn assert_fails(o: &Output, code: i32, parts: &[&str]) -> String {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(code), "exit code; stderr:\n{err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for p in parts {
-        assert!(err.contains(p), "message lacks {p:?}:\n{err}");
-    }
-    err
-}
-
-fn assert_ok(o: &Output) {
-    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(o));
-}
-
-/// Every file under `dir` (recursively), sorted.
-fn files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    if let Ok(entries) = std::fs::read_dir(dir) {
-        for e in entries.flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                out.extend(files(&p));
-            } else {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
-fn temp_files(dir: &Path) -> Vec<PathBuf> {
-    files(dir)
-        .into_iter()
-        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
-        .collect()
-}
+mod common;
+use common::*;
 
 /// `track` of the sample clip into `out`, then `retarget` onto the robot.
 fn tracked_and_retargeted(out: &Path) {

@@ -5,73 +5,12 @@
 #![cfg(feature = "ffmpeg")]
 
 use mocap2d::run::Manifest;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::path::Path;
+use std::process::{Command, Output};
+use std::time::Duration;
 
-fn walk(file: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("clips/walk")
-        .join(file)
-}
-
-fn robot() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/characters/robot.toml")
-}
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn assert_fails(o: &Output, code: i32, parts: &[&str]) -> String {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(code), "exit code; stderr:\n{err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for p in parts {
-        assert!(err.contains(p), "message lacks {p:?}:\n{err}");
-    }
-    err
-}
-
-fn assert_ok(o: &Output) {
-    assert_eq!(o.status.code(), Some(0), "stderr:\n{}", stderr(o));
-}
-
-/// Every file under `dir` (recursively), sorted.
-fn files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    if let Ok(entries) = std::fs::read_dir(dir) {
-        for e in entries.flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                out.extend(files(&p));
-            } else {
-                out.push(p);
-            }
-        }
-    }
-    out.sort();
-    out
-}
-
-fn temp_files(dir: &Path) -> Vec<PathBuf> {
-    files(dir)
-        .into_iter()
-        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
-        .collect()
-}
+mod common;
+use common::*;
 
 /// The sample clip looped `times` times (remuxed, not re-encoded) into `path`.
 fn long_clip(path: &Path, times: u32) {
@@ -92,33 +31,11 @@ fn long_clip(path: &Path, times: u32) {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
-/// Starts `mocap2d ARGS`, waits until `started()` says the work is under way (a file it writes
-/// appeared), sends SIGINT, and returns its output and how long it took to exit after the signal.
-/// `None` if it finished first.
+/// [`common::interrupt`] of `mocap2d ARGS`.
 fn interrupt(args: &[&str], started: impl Fn() -> bool) -> Option<(Output, Duration)> {
-    let mut child = bin()
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t = Instant::now();
-    while !started() && t.elapsed() < Duration::from_secs(120) {
-        if child.try_wait().unwrap().is_some() {
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let pid = child.id().to_string();
-    let sent = Instant::now();
-    let killed = Command::new("kill").args(["-INT", &pid]).status().unwrap();
-    let o = child.wait_with_output().unwrap();
-    let took = sent.elapsed();
-    if !killed.success() || o.status.code() == Some(0) {
-        eprintln!("finished before SIGINT: {}", stderr(&o));
-        return None;
-    }
-    Some((o, took))
+    let mut cmd = bin();
+    cmd.args(args);
+    common::interrupt(cmd, started)
 }
 
 #[test]
