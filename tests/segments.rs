@@ -521,11 +521,21 @@ fn a_missing_or_changed_state_file_is_named_and_rebuilt_from_an_earlier_segment(
     let before = folder_bytes(&run);
     let state = run.join("segments/002.state");
     std::fs::remove_file(&state).unwrap();
+    let without: Vec<_> = before
+        .iter()
+        .filter(|(n, _)| !n.ends_with("002.state"))
+        .cloned()
+        .collect();
     let o = run_bin(&["resume", s(&run), "--segment", "2"]);
     assert_exit(&o, 2, &["002.state", "is missing", "--segment 0"]);
+    assert!(
+        folder_bytes(&run) == without,
+        "a refused resume wrote nothing"
+    );
     std::fs::write(&state, b"mocap2d tracker state 2\nnot a state").unwrap();
     let o = run_bin(&["resume", s(&run), "--segment", "2"]);
     assert_exit(&o, 2, &["002.state", "changed"]);
+    assert!(!run.join("history").exists(), "nothing was archived");
     // Resuming from the segment before rebuilds it: the folder is as track left it.
     let o = run_bin(&["resume", s(&run), "--segment", "1"]);
     assert_exit(&o, 0, &["resumed"]);

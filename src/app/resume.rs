@@ -62,7 +62,8 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
         last_angles: None,
         carried: None,
     };
-    // Every segment file from K on must read before anything is written.
+    // Every segment file from K on must read, and K's state be there, before anything is
+    // written.
     let count = session.manifest.segment.len() as u64;
     for k in first..count {
         let p = segments::file_path(run_dir, k);
@@ -70,6 +71,7 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
             session.start(k)?;
         }
     }
+    session.check_state(first)?;
     folder::remove_temp_files(run_dir)?;
     folder::archive_previous(run_dir)?;
     session.manifest.complete = false;

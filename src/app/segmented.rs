@@ -200,6 +200,15 @@ impl Session {
         }
     }
 
+    /// Checks that tracking can start at segment `k`: unless it is segment 0 or its file is a
+    /// correction, its state file must be there as written (see [`Session::run`]).
+    pub fn check_state(&self, k: u64) -> Result<()> {
+        if k == 0 || self.correction(k)?.is_some() {
+            return Ok(());
+        }
+        self.read_state(k).map(drop)
+    }
+
     /// `segments/NNN.state` of segment `k`, checked against the hash `run.toml` records.
     fn read_state(&self, k: u64) -> Result<Vec<u8>> {
         let path = segments::state_path(&self.run_dir, k);
