@@ -78,8 +78,8 @@ impl Tracker {
     }
 
     /// Looks for hidden joint `j`'s bone all around its parent (lengths within 15 % of its
-    /// current one), as it was laid and mirrored, on the search view `v`, judged on `judge`.
-    /// Returns the child position and whether the bone is mirrored when enough of it fits.
+    /// current one, and any it has been seen at: [`seen_stretch`](super::strip::Strip::seen_stretch)), as it was laid and
+    /// mirrored, on the search view `v`, judged on `judge`. Returns the child position and whether the bone is mirrored when enough of it fits.
     pub(super) fn reacquire(
         &self,
         v: &View,
@@ -93,9 +93,12 @@ impl Tracker {
         let d = x[j] - x[par];
         let len = d.norm().max(1.0);
         let step = (p.search_step_px / len).clamp(0.5f32.to_radians(), 5f32.to_radians());
+        // Lengths within 15 % of the current one, and any it has been seen at.
+        let (lo, hi) = s.seen_lengths();
+        let (lo, hi) = (lo.min(len / 1.15).ln(), hi.max(len * 1.15).ln());
         let w = Window {
-            centre: [d.y.atan2(d.x), len.ln()],
-            half: [PI, 0.15],
+            centre: [d.y.atan2(d.x), 0.5 * (lo + hi)],
+            half: [PI, 0.5 * (hi - lo)],
             step: [step, 0.15],
         };
         let at = |q: [f32; 2]| x[par] + Vector::new(q[0].cos(), q[0].sin()) * q[1].exp();
@@ -116,7 +119,8 @@ impl Tracker {
     /// Looks for hidden joint `j` whose parent is hidden too, with the grandparent placed: the
     /// parent on the circle around the grandparent (its bone's current length), `j` on the
     /// circle around the parent, scored by the bone between them on `v` (a coarse level: the
-    /// grid is the square of a circle) and judged on `judge`.
+    /// grid is the square of a circle) and judged on `judge`. The circles' radii are the bones'
+    /// current lengths and the shortest and longest each has been seen at.
     /// Returns the parent's and `j`'s positions and whether the bone is mirrored when enough
     /// of that bone fits (tried as it was laid and mirrored).
     pub(super) fn reacquire_chain(
@@ -132,31 +136,52 @@ impl Tracker {
         let grand = self.parents[par]?;
         let d1 = x[par] - x[grand];
         let d2 = x[j] - x[par];
-        let (l1, l2) = (d1.norm().max(1.0), d2.norm().max(1.0));
-        let w = Window {
-            centre: [d1.y.atan2(d1.x), d2.y.atan2(d2.x)],
-            half: [PI, PI],
-            step: [
-                (p.search_step_px * v.img.scale / l1).clamp(2f32.to_radians(), 10f32.to_radians()),
-                (p.search_step_px * v.img.scale / l2).clamp(2f32.to_radians(), 10f32.to_radians()),
-            ],
+        // Both bones are hidden, so their lengths are unknown: tried at their current lengths and
+        // at the shortest and longest they have been seen (a squashed cartoon arm).
+        let lengths = |k: usize, now: f32| {
+            let mut l = vec![now.max(1.0)];
+            if let Some(si) = self.model.strip_of[k] {
+                let (lo, hi) = self.model.strips[si].seen_lengths();
+                l.extend(
+                    [lo, hi]
+                        .into_iter()
+                        .filter(|&q| (q / now.max(1.0)).ln().abs() > 0.1),
+                );
+            }
+            l
         };
-        let at = |q: [f32; 2]| {
-            let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;
-            (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
-        };
+        let pairs: Vec<(f32, f32)> = lengths(par, d1.norm())
+            .into_iter()
+            .flat_map(|a| lengths(j, d2.norm()).into_iter().map(move |b| (a, b)))
+            .collect();
         let mut found: Option<(Point, Point, bool, f32)> = None;
-        for m in [s.mirrored, !s.mirrored] {
-            let (best, _) = grid_min(&w, |q| {
-                let (b, c) = at(q);
-                s.coarse_cost_as(v, b, c, m)
-            });
-            let (b, c) = at(best);
-            let fit = s.fit_as(judge, b, c, m);
-            if s.found(&fit, p.reacquire_share, true)
-                && found.is_none_or(|f| fit.child_end > f.3 + 0.1)
-            {
-                found = Some((b, c, m, fit.child_end));
+        for (l1, l2) in pairs {
+            let w = Window {
+                centre: [d1.y.atan2(d1.x), d2.y.atan2(d2.x)],
+                half: [PI, PI],
+                step: [
+                    (p.search_step_px * v.img.scale / l1)
+                        .clamp(2f32.to_radians(), 10f32.to_radians()),
+                    (p.search_step_px * v.img.scale / l2)
+                        .clamp(2f32.to_radians(), 10f32.to_radians()),
+                ],
+            };
+            let at = |q: [f32; 2]| {
+                let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;
+                (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
+            };
+            for m in [s.mirrored, !s.mirrored] {
+                let (best, _) = grid_min(&w, |q| {
+                    let (b, c) = at(q);
+                    s.coarse_cost_as(v, b, c, m)
+                });
+                let (b, c) = at(best);
+                let fit = s.fit_as(judge, b, c, m);
+                if s.found(&fit, p.reacquire_share, true)
+                    && found.is_none_or(|f| fit.child_end > f.3 + 0.1)
+                {
+                    found = Some((b, c, m, fit.child_end));
+                }
             }
         }
         found.map(|(b, c, m, _)| (b, c, m))

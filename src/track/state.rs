@@ -16,7 +16,7 @@ use super::motion::Motion;
 use super::{JointEstimate, Status, Tracker};
 use crate::geom::Point;
 
-const MAGIC: &[u8] = b"mocap2d tracker state 2\n";
+const MAGIC: &[u8] = b"mocap2d tracker state 3\n";
 
 const STATUSES: [Status; 5] = [
     Status::Seed,

@@ -59,6 +59,10 @@ pub const INLIER_E: f32 = 2.5;
 /// sample costs over 0.9 of a misfit anyway).
 const PLATE_CHECK_E: f32 = 9.0;
 
+/// A bone learns its [`Strip::seen_stretch`] on frames where at least this share of what
+/// typically fits does.
+const CLEAR_SHARE: f32 = 0.8;
+
 /// Most other strips a sample is checked against in [`Strip::learn`].
 const ALTERNATIVES: usize = 2;
 
@@ -230,6 +234,10 @@ pub struct Strip {
     pub typical_cost: [f32; MAX_LEVELS],
     /// Bone length on the seed frame (px).
     seed_len: f32,
+    /// Shortest and longest this bone has been seen, as multiples of `seed_len`, over the
+    /// frames it learnt from with most of it fitting: how far it squashes and stretches in
+    /// this clip (hidden bones are looked for within that range).
+    pub seen_stretch: (f32, f32),
     /// See [`StripSpec::width_exponent`].
     width_exponent: f32,
     /// Whether the clean plate may speak against this strip's samples: not where it holds the
@@ -288,6 +296,7 @@ impl Strip {
             typical: (1.0, 1.0),
             typical_cost: [0.5; MAX_LEVELS],
             seed_len: len,
+            seen_stretch: (1.0, 1.0),
             width_exponent: if shape == Shape::Bone {
                 spec.width_exponent
             } else {
@@ -482,6 +491,8 @@ impl Strip {
         out.f32(self.sigma);
         out.f32(self.typical.0);
         out.f32(self.typical.1);
+        out.f32(self.seen_stretch.0);
+        out.f32(self.seen_stretch.1);
         for &c in &self.typical_cost {
             out.f32(c);
         }
@@ -508,6 +519,7 @@ impl Strip {
         };
         self.sigma = r.f32()?;
         self.typical = (r.f32()?, r.f32()?);
+        self.seen_stretch = (r.f32()?, r.f32()?);
         for c in &mut self.typical_cost {
             *c = r.f32()?;
         }
@@ -539,6 +551,15 @@ impl Strip {
     pub fn found(&self, fit: &Fit, share: f32, parent_hidden: bool) -> bool {
         let typical = 0.5 * (self.typical.0 + self.typical.1);
         (parent_hidden || fit.inliers >= share * typical) && fit.child_end >= share * self.typical.1
+    }
+
+    /// Lengths (px) this bone has been seen at in this clip: [`Strip::seen_stretch`] times
+    /// the seed length.
+    pub fn seen_lengths(&self) -> (f32, f32) {
+        (
+            self.seen_stretch.0 * self.seed_len,
+            self.seen_stretch.1 * self.seed_len,
+        )
     }
 
     /// Number of samples.
@@ -837,6 +858,12 @@ impl Strip {
     ) {
         self.typical.0 += rate * (fit.parent_end - self.typical.0);
         self.typical.1 += rate * (fit.child_end - self.typical.1);
+        if self.shape == Shape::Bone
+            && fit.inliers >= CLEAR_SHARE * 0.5 * (self.typical.0 + self.typical.1)
+        {
+            let k = (c - p).norm() / self.seed_len.max(1e-3);
+            self.seen_stretch = (self.seen_stretch.0.min(k), self.seen_stretch.1.max(k));
+        }
         for v in views.iter().take(MAX_LEVELS) {
             let cost = self.coarse_cost(v, p, c);
             let t = &mut self.typical_cost[v.img.k];
@@ -1088,5 +1115,34 @@ mod tests {
             c2.learn(&views, moved, &[None, None], 0.2, 0.5, (5.0, 40.0), &fit);
         }
         assert_eq!(c2.weight_sum(), before);
+    }
+
+    #[test]
+    fn learns_the_lengths_a_bone_is_seen_at_only_where_it_fits() {
+        // Seed: 30 px. Frames: the bar squashed to 24 px and stretched to 36 px.
+        let (p, c) = (Point::new(20.0, 30.0), Point::new(50.0, 30.0));
+        let seed_img = smooth_bar(p, c);
+        let seed = Pyramid::new(&seed_img, LEVELS);
+        let mut s = bone(&seed, p, c, 0.0);
+        assert_eq!(s.seen_lengths(), (30.0, 30.0));
+        for end in [44.0, 56.0] {
+            let c1 = Point::new(end, 30.0);
+            let img = smooth_bar(p, c1);
+            let pyr = Pyramid::new(&img, LEVELS);
+            let views: Vec<View> = (0..LEVELS).map(|k| view(&pyr, k)).collect();
+            let fit = s.fit(&views[0], p, c1);
+            s.learn(&views, (p, c1), &[None], 0.1, 0.5, (5.0, 40.0), &fit);
+        }
+        let (lo, hi) = s.seen_lengths();
+        assert!(
+            (lo - 24.0).abs() < 1e-3 && (hi - 36.0).abs() < 1e-3,
+            "{lo} {hi}"
+        );
+        // Laid where it does not fit (moved off the bar), a length says nothing.
+        let (p2, c2) = (p + Vector::new(0.0, 20.0), Point::new(70.0, 50.0));
+        let views: Vec<View> = (0..LEVELS).map(|k| view(&seed, k)).collect();
+        let fit = s.fit(&views[0], p2, c2);
+        s.learn(&views, (p2, c2), &[None], 0.1, 0.5, (5.0, 40.0), &fit);
+        assert_eq!(s.seen_lengths(), (lo, hi));
     }
 }
