@@ -50,7 +50,9 @@ pub enum Status {
     Seed,
     /// Seen: most samples of its bones near it fit.
     Ok,
-    /// Seen, but poorly (few samples fit, or its bone changed length sharply): worth a look.
+    /// Seen, but poorly (few samples fit, or its bone changed length sharply), or hidden itself
+    /// but placed by a child's bone found whole (an elbow behind the torso placed by its
+    /// forearm): worth a look.
     Low,
     /// Hidden: the position follows the prediction (and is filled afterwards if seen again).
     Occluded,

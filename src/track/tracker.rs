@@ -277,12 +277,24 @@ impl Tracker {
                 searched,
                 refined,
                 evidence: evidence.clone(),
-                reacquired: found,
+                reacquired: found.clone(),
             }),
             _ => None,
         };
         lap(&mut tm.reacquire);
-        let placements = self.update(&pred, &x, &evidence);
+        // A hidden joint placed by its child's bone found whole (an elbow behind the torso
+        // placed by its seen forearm) counts as seen, poorly: its place is an inference from
+        // what shows, not a coast.
+        let anchored: Vec<bool> = (0..x.len())
+            .map(|j| {
+                found[j]
+                    && evidence[j] < self.params.seen_share
+                    && self.children[j]
+                        .iter()
+                        .any(|&c| found[c] && evidence[c] >= self.params.seen_share)
+            })
+            .collect();
+        let placements = self.update(&pred, &x, &evidence, &anchored);
         self.learn(&views, &x, &fits, &evidence, &placements);
         lap(&mut tm.learn);
         self.timings = tm;
@@ -312,13 +324,15 @@ impl Tracker {
     }
 
     /// Motion models and statuses from the frame's final positions `x` and `evidence`. A bone
-    /// is measured only when both its ends are seen. Returns the placement of every strip whose
+    /// is measured only when both its ends are seen. An `anchored` joint (hidden, but placed by
+    /// a child's bone found whole) is `low`, not hidden, and its filters still coast. Returns the placement of every strip whose
     /// bone was clearly seen, for [`Tracker::learn`].
     fn update(
         &mut self,
         pred: &[Prediction],
         x: &[Point],
         evidence: &[f32],
+        anchored: &[bool],
     ) -> Vec<Option<Placement>> {
         let p = &self.params;
         let seen = |j: usize| evidence[j] >= p.seen_share;
@@ -337,7 +351,7 @@ impl Tracker {
                 let expected = (pred[j].pos - pred[q].pos).norm().max(1.0);
                 ((x[j] - x[q]).norm() / expected - 1.0).abs() > p.bone_tolerance
             });
-            let status = if seen(j) {
+            let status = if seen(j) || anchored[j] {
                 state.hidden_run = 0;
                 if e >= p.ok_share && !(measured && stretched) {
                     Status::Ok
