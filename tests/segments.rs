@@ -219,8 +219,8 @@ fn the_report_flags_where_the_tracks_are_far_off() {
 fn corrections_of_flagged_segments_lift_accuracy() {
     let s = Synth::new(Scenario::Long, 320, 180, Some(240));
     let (before, after) = correct_flagged(&s, 40);
-    // Measured: 83.6 % -> 95.4 % (all six segments flagged; their seven files corrected).
-    assert!(after >= 0.94, "PCK@5 {before} -> {after}");
+    // Measured: 83.6 % -> 96.0 % (all six segments flagged; their seven files corrected).
+    assert!(after >= 0.95, "PCK@5 {before} -> {after}");
     assert!(after > before);
 }
 
@@ -230,9 +230,9 @@ fn corrections_of_flagged_segments_lift_accuracy() {
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);
-    // Measured: 87.7 % -> 94.2 % (every segment flagged, all seven files corrected). The
+    // Measured: 87.7 % -> 94.7 % (every segment flagged, all seven files corrected). The
     // issue's target is 98 %: not reached (see the README, "Segments, corrections and resume").
-    assert!(after >= 0.935, "PCK@5 {before} -> {after}");
+    assert!(after >= 0.94, "PCK@5 {before} -> {after}");
 }
 
 /// Runs the binary with `args`, waiting for it.

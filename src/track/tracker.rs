@@ -193,11 +193,12 @@ impl Tracker {
 
     /// A gap filler for this skeleton, holding at most `fill_gaps_max` frames back.
     pub fn gap_filler(&self) -> GapFiller {
-        GapFiller::new(
-            self.parents.clone(),
-            self.order.clone(),
-            self.params.fill_gaps_max as usize,
-        )
+        self.gap_filler_over(self.params.fill_gaps_max as usize)
+    }
+
+    /// A gap filler for this skeleton, holding at most `max_gap` frames back.
+    pub fn gap_filler_over(&self, max_gap: usize) -> GapFiller {
+        GapFiller::new(self.parents.clone(), self.order.clone(), max_gap)
     }
 
     /// The estimates of the last processed frame (the seed frame right after `new`).
