@@ -3,7 +3,7 @@
 
 use super::motion::Prediction;
 use super::search::{grid_min, Window};
-use super::strip::View;
+use super::strip::{Shape, View};
 use super::tracker::Tracker;
 use crate::geom::{Point, Vector};
 use std::f32::consts::PI;
@@ -68,8 +68,12 @@ impl Tracker {
             let guess = x[par] + (pred[j].pos - pred[par].pos);
             x[j] = match self.children[j].iter().copied().find(|&c| seen(c)) {
                 Some(c) => {
-                    let l1 = (pred[j].pos - pred[par].pos).norm();
-                    let l2 = (pred[c].pos - pred[j].pos).norm();
+                    let l1 = self
+                        .rest_len(j)
+                        .unwrap_or((pred[j].pos - pred[par].pos).norm());
+                    let l2 = self
+                        .rest_len(c)
+                        .unwrap_or((pred[c].pos - pred[j].pos).norm());
                     two_bone(x[par], x[c], l1, l2, guess)
                 }
                 None => guess,
@@ -239,6 +243,13 @@ impl Tracker {
 }
 
 impl Tracker {
+    /// The length (px) the bone ending at joint `j` is expected at when it cannot be seen: its
+    /// seed length.
+    fn rest_len(&self, j: usize) -> Option<f32> {
+        let s = &self.model.strips[self.model.strip_of[j]?];
+        (s.shape == Shape::Bone).then(|| s.seed_len())
+    }
+
     /// Lays the strip of the bone ending at joint `j` mirrored or not.
     fn set_mirrored(&mut self, j: usize, mirrored: bool) {
         if let Some(si) = self.model.strip_of[j] {
