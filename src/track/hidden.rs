@@ -38,9 +38,10 @@ pub(super) fn two_bone(a: Point, c: Point, l1: f32, l2: f32, guess: Point) -> Po
 impl Tracker {
     /// A hidden joint's colour evidence is not to be trusted: it keeps its predicted place
     /// relative to its parent (a hidden root: where its seen children put it), or, when one of
-    /// its children is seen, the place that keeps both of its bones at their seed lengths
-    /// nearest to that (their predicted lengths drift while hidden; an elbow behind the torso sits where the shoulder and the seen wrist put
-    /// it). Joints in `keep` (re-acquired this frame) stay where they are.
+    /// its children is seen, the place that keeps both of its bones at their seed lengths (their
+    /// predicted lengths drift while hidden) nearest to that: an elbow behind the torso sits
+    /// where the shoulder and the seen wrist put it. Joints in `keep` (re-acquired this frame)
+    /// stay where they are.
     pub(super) fn place_hidden(
         &self,
         pred: &[Prediction],
