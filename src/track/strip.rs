@@ -119,6 +119,17 @@ impl Extent {
     }
 }
 
+/// Squared normalised residual `e` of the colour `col` against the template colour `t`.
+#[inline(always)]
+fn residual(t: &Rgb, col: Rgb, gain: f32, inv: f32) -> f32 {
+    let (d0, d1, d2) = (
+        col[0] - gain * t[0],
+        col[1] - gain * t[1],
+        col[2] - gain * t[2],
+    );
+    (d0 * d0 + d1 * d1 + d2 * d2) * inv
+}
+
 /// `(t, e)` of a point `s` px along a bone of length `len`: `t` clamped to `[0, 1]`, `e` the rest.
 fn split_along(s: f32, len: f32) -> (f32, f32) {
     if s < 0.0 || len < 1e-6 {
@@ -201,6 +212,17 @@ struct Sample {
     background: bool,
 }
 
+/// A coarse sample as [`Strip::coarse_cost`] reads it: its strip coordinates, weight and
+/// template colour per level.
+#[derive(Debug, Clone, Copy)]
+struct Coarse {
+    t: f32,
+    e: f32,
+    v: f32,
+    w: f32,
+    template: [Rgb; MAX_LEVELS],
+}
+
 /// The appearance of one bone (or lone joint).
 #[derive(Debug, Clone)]
 pub struct Strip {
@@ -220,6 +242,10 @@ pub struct Strip {
     rel: Vec<f32>,
     /// Every `coarse_step`-th sample is used in the coarse search.
     coarse_step: usize,
+    /// Those of the coarse samples that carry weight, with their weight and template: what
+    /// [`Strip::coarse_cost`] reads, one contiguous list instead of four. Kept in step with
+    /// `rel` and `template` by [`Strip::refresh_coarse`].
+    coarse: Vec<Coarse>,
     /// Colour scale σ (levels per channel) of the robust cost.
     pub sigma: f32,
     /// Share of samples that fit at the parent and the child end on frames where the bone is
@@ -284,6 +310,7 @@ impl Strip {
             template: Vec::new(),
             rel: Vec::new(),
             coarse_step: 1,
+            coarse: Vec::new(),
             sigma: spec.sigma,
             typical: (1.0, 1.0),
             typical_cost: [0.5; MAX_LEVELS],
@@ -370,7 +397,29 @@ impl Strip {
             .map(|s| if s.background { 0.0 } else { 1.0 })
             .collect();
         strip.coarse_step = strip.samples.len().div_ceil(spec.coarse_samples.max(1));
+        strip.refresh_coarse();
         Some(strip)
+    }
+
+    /// Remakes the list of weighted coarse samples from the reliabilities and templates; call
+    /// after changing either.
+    fn refresh_coarse(&mut self) {
+        self.coarse.clear();
+        let mut k = 0;
+        while k < self.samples.len() {
+            let w = self.weight(k);
+            if w > 0.0 {
+                let s = &self.samples[k];
+                self.coarse.push(Coarse {
+                    t: s.t,
+                    e: s.e,
+                    v: s.v,
+                    w,
+                    template: self.template[k],
+                });
+            }
+            k += self.coarse_step;
+        }
     }
 
     /// Records, for every sample, the other bone strips (`strips`, this one's index `me`) whose
@@ -471,6 +520,7 @@ impl Strip {
                 self.rel[k] = self.rel[k].min(0.5);
             }
         }
+        self.refresh_coarse();
     }
 
     /// Appends what this strip has learnt since the seed frame to `out` (see
@@ -530,6 +580,7 @@ impl Strip {
                 }
             }
         }
+        self.refresh_coarse();
         Some(())
     }
 
@@ -613,13 +664,7 @@ impl Strip {
     /// Squared normalised residual `e` of sample `k` against colour `col` at level `lv`.
     #[inline(always)]
     fn residual(&self, k: usize, lv: usize, col: Rgb, gain: f32, inv: f32) -> f32 {
-        let t = &self.template[k][lv];
-        let (d0, d1, d2) = (
-            col[0] - gain * t[0],
-            col[1] - gain * t[1],
-            col[2] - gain * t[2],
-        );
-        (d0 * d0 + d1 * d1 + d2 * d2) * inv
+        residual(&self.template[k][lv], col, gain, inv)
     }
 
     /// Squared normalised residual of sample `k` at `(x, y)` on view `v`: `None` outside the
@@ -646,20 +691,23 @@ impl Strip {
     pub fn coarse_cost_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> f32 {
         let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
+        let lv = v.img.k;
         let (mut sum, mut n) = (0.0, 0.0);
-        let mut k = 0;
-        while k < self.samples.len() {
-            let w = self.weight(k);
-            if w > 0.0 {
-                let s = &self.samples[k];
-                let (x, y) = place.at(s.t, s.e, s.v);
-                sum += w * match self.residual_at(v, k, x, y, inv) {
-                    Some(e) if e.is_finite() => e / (1.0 + e),
-                    _ => 1.0,
-                };
-                n += w;
-            }
-            k += self.coarse_step;
+        for s in &self.coarse {
+            let (x, y) = place.at(s.t, s.e, s.v);
+            let e = match v.img.bilinear(x, y) {
+                Some(col) => {
+                    let e = residual(&s.template[lv], col, v.gain, inv);
+                    if e < PLATE_CHECK_E && self.trust_plate && v.looks_background(x, y, col) {
+                        f32::INFINITY
+                    } else {
+                        e
+                    }
+                }
+                None => f32::INFINITY,
+            };
+            sum += s.w * if e.is_finite() { e / (1.0 + e) } else { 1.0 };
+            n += s.w;
         }
         if n > 0.0 {
             sum / n
@@ -898,6 +946,7 @@ impl Strip {
             let target = (1.5 * residual).clamp(sigma_min, sigma_max);
             self.sigma += 0.1 * (target - self.sigma);
         }
+        self.refresh_coarse();
     }
 }
 
