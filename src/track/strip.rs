@@ -246,6 +246,8 @@ pub struct Strip {
     /// [`Strip::coarse_cost`] reads, one contiguous list instead of four. Kept in step with
     /// `rel` and `template` by [`Strip::refresh_coarse`].
     coarse: Vec<Coarse>,
+    /// Sum of the weights of `coarse`, in its order.
+    coarse_weight: f32,
     /// Colour scale σ (levels per channel) of the robust cost.
     pub sigma: f32,
     /// Share of samples that fit at the parent and the child end on frames where the bone is
@@ -311,6 +313,7 @@ impl Strip {
             rel: Vec::new(),
             coarse_step: 1,
             coarse: Vec::new(),
+            coarse_weight: 0.0,
             sigma: spec.sigma,
             typical: (1.0, 1.0),
             typical_cost: [0.5; MAX_LEVELS],
@@ -405,6 +408,7 @@ impl Strip {
     /// after changing either.
     fn refresh_coarse(&mut self) {
         self.coarse.clear();
+        self.coarse_weight = 0.0;
         let mut k = 0;
         while k < self.samples.len() {
             let w = self.weight(k);
@@ -417,6 +421,7 @@ impl Strip {
                     w,
                     template: self.template[k],
                 });
+                self.coarse_weight += w;
             }
             k += self.coarse_step;
         }
@@ -689,11 +694,32 @@ impl Strip {
 
     /// [`Strip::coarse_cost`] laid mirrored or not as asked.
     pub fn coarse_cost_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> f32 {
+        self.coarse_cost_until(v, p, c, mirrored, |_| false)
+            .unwrap_or(1.0)
+    }
+
+    /// How many coarse samples [`Strip::coarse_cost_until`] reads between two looks at its
+    /// running sum.
+    const BOUND_EVERY: usize = 8;
+
+    /// [`Strip::coarse_cost_as`], given up once it is sure to be too high: every few samples,
+    /// `stop(m)` is asked with `m` a lower bound of the cost (the running sum over the total
+    /// weight; every term is at least 0, and rounding is monotonic, so the cost is at least `m`
+    /// to the bit), and `None` is returned when it says so. Otherwise the cost, exactly as
+    /// [`Strip::coarse_cost_as`] computes it.
+    pub fn coarse_cost_until(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        mirrored: bool,
+        stop: impl Fn(f32) -> bool,
+    ) -> Option<f32> {
         let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
         let lv = v.img.k;
         let (mut sum, mut n) = (0.0, 0.0);
-        for s in &self.coarse {
+        for (i, s) in self.coarse.iter().enumerate() {
             let (x, y) = place.at(s.t, s.e, s.v);
             let e = match v.img.bilinear(x, y) {
                 Some(col) => {
@@ -708,12 +734,11 @@ impl Strip {
             };
             sum += s.w * if e.is_finite() { e / (1.0 + e) } else { 1.0 };
             n += s.w;
+            if i % Self::BOUND_EVERY == Self::BOUND_EVERY - 1 && stop(sum / self.coarse_weight) {
+                return None;
+            }
         }
-        if n > 0.0 {
-            sum / n
-        } else {
-            1.0
-        }
+        Some(if n > 0.0 { sum / n } else { 1.0 })
     }
 
     /// Fit statistics over all samples for the pose `(p, c)` on view `v`.
