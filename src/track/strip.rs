@@ -779,7 +779,9 @@ impl Strip {
                 continue;
             }
             cost += w * e / (1.0 + e);
-            res.push((e / inv / 3.0).sqrt());
+            // As bits: for the non-negative values here (e is finite and at least +0), the
+            // integer order of the bits is f32::total_cmp's, and integers select faster.
+            res.push((e / inv / 3.0).sqrt().to_bits());
             if e < INLIER_E {
                 inl += w;
                 pe += w * lp;
@@ -790,7 +792,7 @@ impl Strip {
             0.0
         } else {
             let q = (res.len() * 2) / 5;
-            *res.select_nth_unstable_by(q, f32::total_cmp).1
+            f32::from_bits(*res.select_nth_unstable(q).1)
         };
         let share = |a: f32, b: f32| if b > 0.0 { a / b } else { 0.0 };
         Fit {
