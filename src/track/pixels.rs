@@ -44,7 +44,7 @@ impl<'a> Image<'a> {
     /// Index of the top-left pixel of the 2×2 neighbourhood of `(x, y)` and the fractions
     /// `(fx, fy)`, or `None` outside the frame.
     #[inline(always)]
-    fn cell(&self, x: f32, y: f32) -> Option<(usize, f32, f32)> {
+    pub fn cell(&self, x: f32, y: f32) -> Option<(usize, f32, f32)> {
         // Also rejects NaN: every comparison with NaN is false.
         if !(x >= 0.0 && y >= 0.0) {
             return None;
@@ -60,6 +60,19 @@ impl<'a> Image<'a> {
     #[inline(always)]
     pub fn bilinear(&self, x: f32, y: f32) -> Option<Rgb> {
         let (i, fx, fy) = self.cell(x, y)?;
+        Some(self.bilinear_at(i, fx, fy))
+    }
+
+    /// Whether `other` has this image's size: then a [`Image::cell`] of one is a cell of the
+    /// other.
+    #[inline(always)]
+    pub fn same_size(&self, other: &Image) -> bool {
+        self.w == other.w && self.h == other.h
+    }
+
+    /// [`Image::bilinear`] at a cell found by [`Image::cell`] (of an image of the same size).
+    #[inline(always)]
+    pub fn bilinear_at(&self, i: usize, fx: f32, fy: f32) -> Rgb {
         // The two pixel pairs as slices: two bounds checks instead of twelve.
         let j = i + 3 * self.w;
         let (t, u) = (&self.raw[i..i + 6], &self.raw[j..j + 6]);
@@ -71,7 +84,7 @@ impl<'a> Image<'a> {
             let bot = c + (d - c) * fx;
             *o = top + (bot - top) * fy;
         }
-        Some(out)
+        out
     }
 
     /// Bilinear colour at `(x, y)` px and its derivatives along x and y (levels/px), as central

@@ -44,10 +44,17 @@ impl View<'_> {
         let Some(plate) = &self.plate else {
             return false;
         };
-        plate.bilinear(x, y).is_some_and(|b| {
-            let d: f32 = (0..3).map(|k| (col[k] - self.gain * b[k]).powi(2)).sum();
-            d * self.bg_inv < 1.0
-        })
+        plate
+            .bilinear(x, y)
+            .is_some_and(|b| self.matches_plate(col, b))
+    }
+
+    /// Whether the frame colour `col` is within the noise of the plate colour `b` (see
+    /// [`View::looks_background`]).
+    #[inline(always)]
+    fn matches_plate(&self, col: Rgb, b: Rgb) -> bool {
+        let d: f32 = (0..3).map(|k| (col[k] - self.gain * b[k]).powi(2)).sum();
+        d * self.bg_inv < 1.0
     }
 }
 use crate::geom::{Point, Vector};
@@ -718,13 +725,27 @@ impl Strip {
         let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
         let lv = v.img.k;
+        let img = &v.img.img;
+        // A plate of the frame's size is read at the frame's cell (the same position and
+        // fractions as its own `bilinear` would find).
+        let plate = v
+            .plate
+            .as_ref()
+            .filter(|p| self.trust_plate && p.k == lv && p.img.same_size(img));
         let (mut sum, mut n) = (0.0, 0.0);
         for (i, s) in self.coarse.iter().enumerate() {
             let (x, y) = place.at(s.t, s.e, s.v);
-            let e = match v.img.bilinear(x, y) {
-                Some(col) => {
+            let (lx, ly) = v.img.to_level(x, y);
+            let e = match img.cell(lx, ly) {
+                Some((at, fx, fy)) => {
+                    let col = img.bilinear_at(at, fx, fy);
                     let e = residual(&s.template[lv], col, v.gain, inv);
-                    if e < PLATE_CHECK_E && self.trust_plate && v.looks_background(x, y, col) {
+                    let background = e < PLATE_CHECK_E
+                        && match plate {
+                            Some(p) => v.matches_plate(col, p.img.bilinear_at(at, fx, fy)),
+                            None => self.trust_plate && v.looks_background(x, y, col),
+                        };
+                    if background {
                         f32::INFINITY
                     } else {
                         e
