@@ -3,7 +3,7 @@
 
 use super::model::End;
 use super::motion::Prediction;
-use super::search::{grid_min, Window};
+use super::search::{grid_min_bounded, Window};
 use super::solve::{self, LengthPrior, PositionPrior, Problem};
 use super::strip::{Fit, Shape, Strip, View};
 use super::tracker::Tracker;
@@ -87,9 +87,22 @@ impl Tracker {
         if colour(Vector::zeros()) < typical + p.search_skip_cost {
             return Vector::zeros();
         }
-        let (best, _) = grid_min(&w, |q| {
+        let count = strips.len() as f32;
+        // `colour(d)` plus the geometric term, given up (infinite) once it cannot be below
+        // `limit`: the strips' costs summed so far plus a lower bound of the next one (see
+        // [`Strip::coarse_cost_until`]), through the same operations.
+        let (best, _) = grid_min_bounded(&w, |q, limit| {
             let d = Vector::new(q[0], q[1]);
-            colour(d) + p.geo_weight * d.norm_squared() / (radius * radius)
+            let geo = p.geo_weight * d.norm_squared() / (radius * radius);
+            let mut sum = 0.0;
+            for s in &strips {
+                let reached = |m: f32| (sum + m) / count + geo >= limit;
+                match s.coarse_cost_until(v, x[s.parent] + d, x[s.child] + d, s.mirrored, reached) {
+                    Some(c) => sum += c,
+                    None => return f32::INFINITY,
+                }
+            }
+            sum / count + geo
         });
         Vector::new(best[0], best[1])
     }
@@ -145,9 +158,26 @@ impl Tracker {
             // As good as it gets: the refinement does the rest.
             return guess;
         }
-        let (best, _) = grid_min(&w, |q| {
+        // `colour(at(q))` plus the geometric term, given up (infinite) once it cannot be below
+        // `limit` (as in `search_root`).
+        let (best, _) = grid_min_bounded(&w, |q, limit| {
             let geo = ((q[0] - a0) / half_a).powi(2) + ((q[1] - l0) / half_l).powi(2);
-            colour(at(q)) + p.geo_weight * geo
+            let extra = p.geo_weight * geo;
+            let c = at(q);
+            let d = c - guess;
+            let reached = |sum: f32| sum / n + extra >= limit;
+            let Some(mut sum) = s.coarse_cost_until(v, parent, c, s.mirrored, reached) else {
+                return f32::INFINITY;
+            };
+            for &(bi, end) in below {
+                let b = &self.model.strips[bi];
+                let more = b.coarse_cost_until(v, c, end + d, b.mirrored, |m| reached(sum + m));
+                match more {
+                    Some(m) => sum += m,
+                    None => return f32::INFINITY,
+                }
+            }
+            sum / n + extra
         });
         if colour(at(best)) < here - p.move_evidence {
             at(best)

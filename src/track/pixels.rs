@@ -44,7 +44,7 @@ impl<'a> Image<'a> {
     /// Index of the top-left pixel of the 2×2 neighbourhood of `(x, y)` and the fractions
     /// `(fx, fy)`, or `None` outside the frame.
     #[inline(always)]
-    fn cell(&self, x: f32, y: f32) -> Option<(usize, f32, f32)> {
+    pub fn cell(&self, x: f32, y: f32) -> Option<(usize, f32, f32)> {
         // Also rejects NaN: every comparison with NaN is false.
         if !(x >= 0.0 && y >= 0.0) {
             return None;
@@ -60,17 +60,31 @@ impl<'a> Image<'a> {
     #[inline(always)]
     pub fn bilinear(&self, x: f32, y: f32) -> Option<Rgb> {
         let (i, fx, fy) = self.cell(x, y)?;
-        let r = self.raw;
+        Some(self.bilinear_at(i, fx, fy))
+    }
+
+    /// Whether `other` has this image's size: then a [`Image::cell`] of one is a cell of the
+    /// other.
+    #[inline(always)]
+    pub fn same_size(&self, other: &Image) -> bool {
+        self.w == other.w && self.h == other.h
+    }
+
+    /// [`Image::bilinear`] at a cell found by [`Image::cell`] (of an image of the same size).
+    #[inline(always)]
+    pub fn bilinear_at(&self, i: usize, fx: f32, fy: f32) -> Rgb {
+        // The two pixel pairs as slices: two bounds checks instead of twelve.
         let j = i + 3 * self.w;
+        let (t, u) = (&self.raw[i..i + 6], &self.raw[j..j + 6]);
         let mut out = [0.0; 3];
         for (k, o) in out.iter_mut().enumerate() {
-            let (a, b) = (r[i + k] as f32, r[i + 3 + k] as f32);
-            let (c, d) = (r[j + k] as f32, r[j + 3 + k] as f32);
+            let (a, b) = (t[k] as f32, t[3 + k] as f32);
+            let (c, d) = (u[k] as f32, u[3 + k] as f32);
             let top = a + (b - a) * fx;
             let bot = c + (d - c) * fx;
             *o = top + (bot - top) * fy;
         }
-        Some(out)
+        out
     }
 
     /// Bilinear colour at `(x, y)` px and its derivatives along x and y (levels/px), as central
@@ -89,30 +103,49 @@ impl<'a> Image<'a> {
         }
         // Block offsets: a = fx + (0, 0.5, 1), b = fy + (0, 0.5, 1) within the 3×3 block.
         let (fx, fy) = (xs - x0 as f32, ys - y0 as f32);
-        let r = self.raw;
-        let row = |j: usize| (y0 + j) * self.w * 3 + x0 * 3;
-        let (r0, r1, r2) = (row(0), row(1), row(2));
-        // Bilinear within the block at (a, b), a, b in [0, 2).
-        let at = |a: f32, b: f32, k: usize| -> f32 {
-            let (i, fa) = if a < 1.0 { (0, a) } else { (1, a - 1.0) };
-            let (rt, rb, fb) = if b < 1.0 {
-                (r0, r1, b)
-            } else {
-                (r1, r2, b - 1.0)
-            };
-            let p = |base: usize, ii: usize| r[base + 3 * ii + k] as f32;
-            let top = p(rt, i) + (p(rt, i + 1) - p(rt, i)) * fa;
-            let bot = p(rb, i) + (p(rb, i + 1) - p(rb, i)) * fa;
-            top + (bot - top) * fb
+        // The block, read once: row j, column i, channel k at [j][3 i + k].
+        let row = |j: usize| -> [f32; 9] {
+            let start = ((y0 + j) * self.w + x0) * 3;
+            let px = &self.raw[start..start + 9];
+            std::array::from_fn(|i| px[i] as f32)
         };
+        let block = [row(0), row(1), row(2)];
+        let (cl, cm, cr) = (split(fx), split(fx + 0.5), split(fx + 1.0));
+        let (ru, rm, rd) = (split(fy), split(fy + 0.5), split(fy + 1.0));
         let (mut v, mut gx, mut gy) = ([0.0; 3], [0.0; 3], [0.0; 3]);
         for k in 0..3 {
-            v[k] = at(fx + 0.5, fy + 0.5, k);
-            gx[k] = at(fx + 1.0, fy + 0.5, k) - at(fx, fy + 0.5, k);
-            gy[k] = at(fx + 0.5, fy + 1.0, k) - at(fx + 0.5, fy, k);
+            v[k] = block_read(&block, cm, rm, k);
+            gx[k] = block_read(&block, cr, rm, k) - block_read(&block, cl, rm, k);
+            gy[k] = block_read(&block, cm, rd, k) - block_read(&block, cm, ru, k);
         }
         Some((v, gx, gy))
     }
+}
+
+/// Where an offset `a ∈ [0, 2)` within a 3×3 block falls: the first pixel of its pair (0 or 1)
+/// and the fraction past it.
+#[inline(always)]
+fn split(a: f32) -> (usize, f32) {
+    if a < 1.0 {
+        (0, a)
+    } else {
+        (1, a - 1.0)
+    }
+}
+
+/// Bilinear value of channel `k` within a 3×3 `block` (see [`Image::bilinear_grad`]) at the
+/// column pair and fraction `(i, fa)` and the row pair and fraction `(j, fb)` ([`split`]).
+#[inline(always)]
+fn block_read(
+    block: &[[f32; 9]; 3],
+    (i, fa): (usize, f32),
+    (j, fb): (usize, f32),
+    k: usize,
+) -> f32 {
+    let p = |jj: usize, ii: usize| block[jj][3 * ii + k];
+    let top = p(j, i) + (p(j, i + 1) - p(j, i)) * fa;
+    let bot = p(j + 1, i) + (p(j + 1, i + 1) - p(j + 1, i)) * fa;
+    top + (bot - top) * fb
 }
 
 /// An image pyramid of a frame: level 0 is the frame, each next level halves both sides by
@@ -135,11 +168,12 @@ fn halve(raw: &[u8], w: usize, h: usize) -> image::RgbImage {
             let r0 = &raw[(2 * y) * w * 3..(2 * y + 1) * w * 3];
             let r1 = &raw[(2 * y + 1) * w * 3..(2 * y + 2) * w * 3];
             let o = &mut out[y * w2 * 3..(y + 1) * w2 * 3];
-            for x in 0..w2 {
+            // Two input pixels of each row to one output pixel (6 bytes to 3).
+            let pairs = r0.chunks_exact(6).zip(r1.chunks_exact(6));
+            for (px, (a, b)) in o.chunks_exact_mut(3).zip(pairs) {
                 for k in 0..3 {
-                    let i = 6 * x + k;
-                    let sum = r0[i] as u16 + r0[i + 3] as u16 + r1[i] as u16 + r1[i + 3] as u16;
-                    o[3 * x + k] = ((sum + 2) / 4) as u8;
+                    let sum = a[k] as u16 + a[k + 3] as u16 + b[k] as u16 + b[k + 3] as u16;
+                    px[k] = ((sum + 2) / 4) as u8;
                 }
             }
         }

@@ -10,7 +10,7 @@
 //! strips fit at least `redetect_share`. The motion models of the body are then restarted at rest there.
 
 use super::motion::Prediction;
-use super::search::{grid_min, Window};
+use super::search::{grid_min_bounded, Window};
 use super::strip::View;
 use super::Tracker;
 use crate::geom::{Point, Vector};
@@ -102,18 +102,24 @@ impl Tracker {
                         Vector::new(if flip { -d.x } else { d.x }, d.y)
                     })
                     .collect();
-                let cost = |q: [f32; 2]| {
+                // The mean coarse cost of the body's strips with the root at `q`, given up
+                // (infinite) once it cannot be below `limit` (see `Strip::coarse_cost_until`).
+                let count = strips.len() as f32;
+                let cost = |q: [f32; 2], limit: f32| {
                     let at = |j: usize| Point::new(q[0], q[1]) + rel[slot(j)];
-                    strips
-                        .iter()
-                        .map(|&si| {
-                            let s = &self.model.strips[si];
-                            s.coarse_cost_as(v, at(s.parent), at(s.child), s.mirrored ^ flip)
-                        })
-                        .sum::<f32>()
-                        / strips.len() as f32
+                    let mut sum = 0.0;
+                    for &si in &strips {
+                        let s = &self.model.strips[si];
+                        let reached = |m: f32| (sum + m) / count >= limit;
+                        let (a, b, m) = (at(s.parent), at(s.child), s.mirrored ^ flip);
+                        match s.coarse_cost_until(v, a, b, m, reached) {
+                            Some(c) => sum += c,
+                            None => return f32::INFINITY,
+                        }
+                    }
+                    sum / count
                 };
-                let (q, _) = grid_min(&w, cost);
+                let (q, _) = grid_min_bounded(&w, cost);
                 let at = Point::new(q[0], q[1]);
                 out.push((rel.iter().map(|&d| at + d).collect(), flip));
             }

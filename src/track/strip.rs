@@ -44,10 +44,17 @@ impl View<'_> {
         let Some(plate) = &self.plate else {
             return false;
         };
-        plate.bilinear(x, y).is_some_and(|b| {
-            let d: f32 = (0..3).map(|k| (col[k] - self.gain * b[k]).powi(2)).sum();
-            d * self.bg_inv < 1.0
-        })
+        plate
+            .bilinear(x, y)
+            .is_some_and(|b| self.matches_plate(col, b))
+    }
+
+    /// Whether the frame colour `col` is within the noise of the plate colour `b` (see
+    /// [`View::looks_background`]).
+    #[inline(always)]
+    fn matches_plate(&self, col: Rgb, b: Rgb) -> bool {
+        let d: f32 = (0..3).map(|k| (col[k] - self.gain * b[k]).powi(2)).sum();
+        d * self.bg_inv < 1.0
     }
 }
 use crate::geom::{Point, Vector};
@@ -121,6 +128,17 @@ impl Extent {
         let (t, e) = split_along(s, len);
         Some((t, e, v))
     }
+}
+
+/// Squared normalised residual `e` of the colour `col` against the template colour `t`.
+#[inline(always)]
+fn residual(t: &Rgb, col: Rgb, gain: f32, inv: f32) -> f32 {
+    let (d0, d1, d2) = (
+        col[0] - gain * t[0],
+        col[1] - gain * t[1],
+        col[2] - gain * t[2],
+    );
+    (d0 * d0 + d1 * d1 + d2 * d2) * inv
 }
 
 /// `(t, e)` of a point `s` px along a bone of length `len`: `t` clamped to `[0, 1]`, `e` the rest.
@@ -205,6 +223,17 @@ struct Sample {
     background: bool,
 }
 
+/// A coarse sample as [`Strip::coarse_cost`] reads it: its strip coordinates, weight and
+/// template colour per level.
+#[derive(Debug, Clone, Copy)]
+struct Coarse {
+    t: f32,
+    e: f32,
+    v: f32,
+    w: f32,
+    template: [Rgb; MAX_LEVELS],
+}
+
 /// The appearance of one bone (or lone joint).
 #[derive(Debug, Clone)]
 pub struct Strip {
@@ -224,6 +253,12 @@ pub struct Strip {
     rel: Vec<f32>,
     /// Every `coarse_step`-th sample is used in the coarse search.
     coarse_step: usize,
+    /// Those of the coarse samples that carry weight, with their weight and template: what
+    /// [`Strip::coarse_cost`] reads, one contiguous list instead of four. Kept in step with
+    /// `rel` and `template` by [`Strip::refresh_coarse`].
+    coarse: Vec<Coarse>,
+    /// Sum of the weights of `coarse`, in its order.
+    coarse_weight: f32,
     /// Colour scale σ (levels per channel) of the robust cost.
     pub sigma: f32,
     /// Share of samples that fit at the parent and the child end on frames where the bone is
@@ -292,6 +327,8 @@ impl Strip {
             template: Vec::new(),
             rel: Vec::new(),
             coarse_step: 1,
+            coarse: Vec::new(),
+            coarse_weight: 0.0,
             sigma: spec.sigma,
             typical: (1.0, 1.0),
             typical_cost: [0.5; MAX_LEVELS],
@@ -379,7 +416,31 @@ impl Strip {
             .map(|s| if s.background { 0.0 } else { 1.0 })
             .collect();
         strip.coarse_step = strip.samples.len().div_ceil(spec.coarse_samples.max(1));
+        strip.refresh_coarse();
         Some(strip)
+    }
+
+    /// Remakes the list of weighted coarse samples from the reliabilities and templates; call
+    /// after changing either.
+    fn refresh_coarse(&mut self) {
+        self.coarse.clear();
+        self.coarse_weight = 0.0;
+        let mut k = 0;
+        while k < self.samples.len() {
+            let w = self.weight(k);
+            if w > 0.0 {
+                let s = &self.samples[k];
+                self.coarse.push(Coarse {
+                    t: s.t,
+                    e: s.e,
+                    v: s.v,
+                    w,
+                    template: self.template[k],
+                });
+                self.coarse_weight += w;
+            }
+            k += self.coarse_step;
+        }
     }
 
     /// Records, for every sample, the other bone strips (`strips`, this one's index `me`) whose
@@ -480,6 +541,7 @@ impl Strip {
                 self.rel[k] = self.rel[k].min(0.5);
             }
         }
+        self.refresh_coarse();
     }
 
     /// Appends what this strip has learnt since the seed frame to `out` (see
@@ -542,6 +604,7 @@ impl Strip {
                 }
             }
         }
+        self.refresh_coarse();
         Some(())
     }
 
@@ -639,13 +702,7 @@ impl Strip {
     /// Squared normalised residual `e` of sample `k` against colour `col` at level `lv`.
     #[inline(always)]
     fn residual(&self, k: usize, lv: usize, col: Rgb, gain: f32, inv: f32) -> f32 {
-        let t = &self.template[k][lv];
-        let (d0, d1, d2) = (
-            col[0] - gain * t[0],
-            col[1] - gain * t[1],
-            col[2] - gain * t[2],
-        );
-        (d0 * d0 + d1 * d1 + d2 * d2) * inv
+        residual(&self.template[k][lv], col, gain, inv)
     }
 
     /// Squared normalised residual of sample `k` at `(x, y)` on view `v`: `None` outside the
@@ -670,28 +727,65 @@ impl Strip {
 
     /// [`Strip::coarse_cost`] laid mirrored or not as asked.
     pub fn coarse_cost_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> f32 {
+        self.coarse_cost_until(v, p, c, mirrored, |_| false)
+            .unwrap_or(1.0)
+    }
+
+    /// How many coarse samples [`Strip::coarse_cost_until`] reads between two looks at its
+    /// running sum.
+    const BOUND_EVERY: usize = 8;
+
+    /// [`Strip::coarse_cost_as`], given up once it is sure to be too high: every few samples,
+    /// `stop(m)` is asked with `m` a lower bound of the cost (the running sum over the total
+    /// weight; every term is at least 0, and rounding is monotonic, so the cost is at least `m`
+    /// to the bit), and `None` is returned when it says so. Otherwise the cost, exactly as
+    /// [`Strip::coarse_cost_as`] computes it.
+    pub fn coarse_cost_until(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        mirrored: bool,
+        stop: impl Fn(f32) -> bool,
+    ) -> Option<f32> {
         let place = self.placement_as(p, c, mirrored);
         let inv = self.inv_scale();
+        let lv = v.img.k;
+        let img = &v.img.img;
+        // A plate of the frame's size is read at the frame's cell (the same position and
+        // fractions as its own `bilinear` would find).
+        let plate = v
+            .plate
+            .as_ref()
+            .filter(|p| self.trust_plate && p.k == lv && p.img.same_size(img));
         let (mut sum, mut n) = (0.0, 0.0);
-        let mut k = 0;
-        while k < self.samples.len() {
-            let w = self.weight(k);
-            if w > 0.0 {
-                let s = &self.samples[k];
-                let (x, y) = place.at(s.t, s.e, s.v);
-                sum += w * match self.residual_at(v, k, x, y, inv) {
-                    Some(e) if e.is_finite() => e / (1.0 + e),
-                    _ => 1.0,
-                };
-                n += w;
+        for (i, s) in self.coarse.iter().enumerate() {
+            let (x, y) = place.at(s.t, s.e, s.v);
+            let (lx, ly) = v.img.to_level(x, y);
+            let e = match img.cell(lx, ly) {
+                Some((at, fx, fy)) => {
+                    let col = img.bilinear_at(at, fx, fy);
+                    let e = residual(&s.template[lv], col, v.gain, inv);
+                    let background = e < PLATE_CHECK_E
+                        && match plate {
+                            Some(p) => v.matches_plate(col, p.img.bilinear_at(at, fx, fy)),
+                            None => self.trust_plate && v.looks_background(x, y, col),
+                        };
+                    if background {
+                        f32::INFINITY
+                    } else {
+                        e
+                    }
+                }
+                None => f32::INFINITY,
+            };
+            sum += s.w * if e.is_finite() { e / (1.0 + e) } else { 1.0 };
+            n += s.w;
+            if i % Self::BOUND_EVERY == Self::BOUND_EVERY - 1 && stop(sum / self.coarse_weight) {
+                return None;
             }
-            k += self.coarse_step;
         }
-        if n > 0.0 {
-            sum / n
-        } else {
-            1.0
-        }
+        Some(if n > 0.0 { sum / n } else { 1.0 })
     }
 
     /// Fit statistics over all samples for the pose `(p, c)` on view `v`.
@@ -732,7 +826,9 @@ impl Strip {
                 continue;
             }
             cost += w * e / (1.0 + e);
-            res.push((e / inv / 3.0).sqrt());
+            // As bits: for the non-negative values here (e is finite and at least +0), the
+            // integer order of the bits is f32::total_cmp's, and integers select faster.
+            res.push((e / inv / 3.0).sqrt().to_bits());
             if e < INLIER_E {
                 inl += w;
                 pe += w * lp;
@@ -743,7 +839,7 @@ impl Strip {
             0.0
         } else {
             let q = (res.len() * 2) / 5;
-            *res.select_nth_unstable_by(q, f32::total_cmp).1
+            f32::from_bits(*res.select_nth_unstable(q).1)
         };
         let share = |a: f32, b: f32| if b > 0.0 { a / b } else { 0.0 };
         Fit {
@@ -930,6 +1026,7 @@ impl Strip {
             let target = (1.5 * residual).clamp(sigma_min, sigma_max);
             self.sigma += 0.1 * (target - self.sigma);
         }
+        self.refresh_coarse();
     }
 }
 
