@@ -3,7 +3,7 @@
 
 use super::motion::Prediction;
 use super::search::{grid_min, Window};
-use super::strip::{Shape, View};
+use super::strip::View;
 use super::tracker::Tracker;
 use crate::geom::{Point, Vector};
 use std::f32::consts::PI;
@@ -38,10 +38,9 @@ pub(super) fn two_bone(a: Point, c: Point, l1: f32, l2: f32, guess: Point) -> Po
 impl Tracker {
     /// A hidden joint's colour evidence is not to be trusted: it keeps its predicted place
     /// relative to its parent (a hidden root: where its seen children put it), or, when one of
-    /// its children is seen, the place that keeps both of its bones at their seed lengths (their
-    /// predicted lengths drift while hidden) nearest to that: an elbow behind the torso sits
-    /// where the shoulder and the seen wrist put it. Joints in `keep` (re-acquired this frame)
-    /// stay where they are.
+    /// its children is seen, the place that keeps both of its bones at their predicted lengths
+    /// nearest to that (an elbow behind the torso sits where the shoulder and the seen wrist put
+    /// it). Joints in `keep` (re-acquired this frame) stay where they are.
     pub(super) fn place_hidden(
         &self,
         pred: &[Prediction],
@@ -69,12 +68,8 @@ impl Tracker {
             let guess = x[par] + (pred[j].pos - pred[par].pos);
             x[j] = match self.children[j].iter().copied().find(|&c| seen(c)) {
                 Some(c) => {
-                    let l1 = self
-                        .rest_len(j)
-                        .unwrap_or((pred[j].pos - pred[par].pos).norm());
-                    let l2 = self
-                        .rest_len(c)
-                        .unwrap_or((pred[c].pos - pred[j].pos).norm());
+                    let l1 = (pred[j].pos - pred[par].pos).norm();
+                    let l2 = (pred[c].pos - pred[j].pos).norm();
                     two_bone(x[par], x[c], l1, l2, guess)
                 }
                 None => guess,
@@ -244,13 +239,6 @@ impl Tracker {
 }
 
 impl Tracker {
-    /// The length (px) the bone ending at joint `j` is expected at when it cannot be seen: its
-    /// seed length.
-    fn rest_len(&self, j: usize) -> Option<f32> {
-        let s = &self.model.strips[self.model.strip_of[j]?];
-        (s.shape == Shape::Bone).then(|| s.seed_len())
-    }
-
     /// Lays the strip of the bone ending at joint `j` mirrored or not.
     fn set_mirrored(&mut self, j: usize, mirrored: bool) {
         if let Some(si) = self.model.strip_of[j] {

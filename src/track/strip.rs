@@ -616,11 +616,6 @@ impl Strip {
         (parent_hidden || fit.inliers >= share * typical) && fit.child_end >= share * self.typical.1
     }
 
-    /// Bone length on the seed frame (px).
-    pub fn seed_len(&self) -> f32 {
-        self.seed_len
-    }
-
     /// Lengths (px) this bone has been seen at in this clip: [`Strip::seen_stretch`] times
     /// the seed length.
     pub fn seen_lengths(&self) -> (f32, f32) {
