@@ -1,0 +1,277 @@
+//! What a strip costs laid at a pose (METHOD.md eq. 4.1 made robust, see the module doc of
+//! [`super`]): per-sample residuals, the coarse search cost (with its early stop), the fit
+//! statistics, and the Gauss–Newton normal equations of the refinement.
+
+use super::{Fit, Normal, Shape, Strip, View, INLIER_E, PLATE_CHECK_E};
+use crate::geom::Point;
+use crate::track::pixels::Rgb;
+
+/// Squared normalised residual `e` of the colour `col` against the template colour `t`.
+#[inline(always)]
+fn residual(t: &Rgb, col: Rgb, gain: f32, inv: f32) -> f32 {
+    let (d0, d1, d2) = (
+        col[0] - gain * t[0],
+        col[1] - gain * t[1],
+        col[2] - gain * t[2],
+    );
+    (d0 * d0 + d1 * d1 + d2 * d2) * inv
+}
+
+impl Strip {
+    /// Diagnostics: every sample's image position (px) at the pose `(p, c)`, its squared
+    /// normalised residual `e` (infinite outside the frame) and its weight.
+    pub fn probe(&self, v: &View, p: Point, c: Point) -> Vec<(f32, f32, f32, f32)> {
+        let place = self.placement(p, c);
+        let inv = self.inv_scale();
+        (0..self.samples.len())
+            .map(|k| {
+                let s = &self.samples[k];
+                let (x, y) = place.at(s.t, s.e, s.v);
+                let e = self.residual_at(v, k, x, y, inv).unwrap_or(f32::INFINITY);
+                (x, y, e, self.weight(k))
+            })
+            .collect()
+    }
+
+    /// Whether `fit` looks like this bone found: at least `share` of what fits on a frame where
+    /// it is seen (its [`Strip::typical`] shares), at its child end and, unless `parent_hidden`,
+    /// overall.
+    pub fn found(&self, fit: &Fit, share: f32, parent_hidden: bool) -> bool {
+        let typical = 0.5 * (self.typical.0 + self.typical.1);
+        (parent_hidden || fit.inliers >= share * typical) && fit.child_end >= share * self.typical.1
+    }
+
+    /// Squared normalised residual `e` of sample `k` against colour `col` at level `lv`.
+    #[inline(always)]
+    pub(super) fn residual(&self, k: usize, lv: usize, col: Rgb, gain: f32, inv: f32) -> f32 {
+        residual(&self.template[k][lv], col, gain, inv)
+    }
+
+    /// Squared normalised residual of sample `k` at `(x, y)` on view `v`: `None` outside the
+    /// frame, infinite where the pixel looks like the clean plate.
+    #[inline(always)]
+    fn residual_at(&self, v: &View, k: usize, x: f32, y: f32, inv: f32) -> Option<f32> {
+        let col = v.img.bilinear(x, y)?;
+        let e = self.residual(k, v.img.k, col, v.gain, inv);
+        // The plate matters only where the sample fits (a poor fit costs nearly 1 anyway):
+        // reading it only there halves the work of a search.
+        if e < PLATE_CHECK_E && self.trust_plate && v.looks_background(x, y, col) {
+            return Some(f32::INFINITY);
+        }
+        Some(e)
+    }
+
+    /// Mean robust cost (0–1) over the coarse samples for the pose `(p, c)` on view `v`: the
+    /// search cost.
+    pub fn coarse_cost(&self, v: &View, p: Point, c: Point) -> f32 {
+        self.coarse_cost_as(v, p, c, self.mirrored)
+    }
+
+    /// [`Strip::coarse_cost`] laid mirrored or not as asked.
+    pub fn coarse_cost_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> f32 {
+        self.coarse_cost_until(v, p, c, mirrored, |_| false)
+            .unwrap_or(1.0)
+    }
+
+    /// How many coarse samples [`Strip::coarse_cost_until`] reads between two looks at its
+    /// running sum.
+    const BOUND_EVERY: usize = 8;
+
+    /// [`Strip::coarse_cost_as`], given up once it is sure to be too high: every few samples,
+    /// `stop(m)` is asked with `m` a lower bound of the cost (the running sum over the total
+    /// weight; every term is at least 0, and rounding is monotonic, so the cost is at least `m`
+    /// to the bit), and `None` is returned when it says so. Otherwise the cost, exactly as
+    /// [`Strip::coarse_cost_as`] computes it.
+    pub fn coarse_cost_until(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        mirrored: bool,
+        stop: impl Fn(f32) -> bool,
+    ) -> Option<f32> {
+        let place = self.placement_as(p, c, mirrored);
+        let inv = self.inv_scale();
+        let lv = v.img.k;
+        let img = &v.img.img;
+        // A plate of the frame's size is read at the frame's cell (the same position and
+        // fractions as its own `bilinear` would find).
+        let plate = v
+            .plate
+            .as_ref()
+            .filter(|p| self.trust_plate && p.k == lv && p.img.same_size(img));
+        let (mut sum, mut n) = (0.0, 0.0);
+        for (i, s) in self.coarse.iter().enumerate() {
+            let (x, y) = place.at(s.t, s.e, s.v);
+            let (lx, ly) = v.img.to_level(x, y);
+            let e = match img.cell(lx, ly) {
+                Some((at, fx, fy)) => {
+                    let col = img.bilinear_at(at, fx, fy);
+                    let e = residual(&s.template[lv], col, v.gain, inv);
+                    let background = e < PLATE_CHECK_E
+                        && match plate {
+                            Some(p) => v.matches_plate(col, p.img.bilinear_at(at, fx, fy)),
+                            None => self.trust_plate && v.looks_background(x, y, col),
+                        };
+                    if background {
+                        f32::INFINITY
+                    } else {
+                        e
+                    }
+                }
+                None => f32::INFINITY,
+            };
+            sum += s.w * if e.is_finite() { e / (1.0 + e) } else { 1.0 };
+            n += s.w;
+            if i % Self::BOUND_EVERY == Self::BOUND_EVERY - 1 && stop(sum / self.coarse_weight) {
+                return None;
+            }
+        }
+        Some(if n > 0.0 { sum / n } else { 1.0 })
+    }
+
+    /// Fit statistics over all samples for the pose `(p, c)` on view `v`.
+    pub fn fit(&self, v: &View, p: Point, c: Point) -> Fit {
+        self.fit_as(v, p, c, self.mirrored)
+    }
+
+    /// [`Strip::fit`] laid mirrored or not as asked.
+    pub fn fit_as(&self, v: &View, p: Point, c: Point, mirrored: bool) -> Fit {
+        let place = self.placement_as(p, c, mirrored);
+        let inv = self.inv_scale();
+        let (mut cost, mut inl, mut pe, mut ce) = (0.0, 0.0, 0.0, 0.0);
+        let (mut wsum, mut pw, mut cw) = (0.0, 0.0, 0.0);
+        let mut res = Vec::with_capacity(self.samples.len());
+        for (k, s) in self.samples.iter().enumerate() {
+            let w = self.weight(k);
+            if w <= 0.0 {
+                continue;
+            }
+            // Only the half of the strip nearest an end speaks for that end.
+            let (lp, lc) = match self.shape {
+                Shape::Bone => (
+                    (1.0 - 2.0 * s.f).clamp(0.0, 1.0),
+                    (2.0 * s.f - 1.0).clamp(0.0, 1.0),
+                ),
+                Shape::Patch => (1.0, 1.0),
+            };
+            wsum += w;
+            pw += w * lp;
+            cw += w * lc;
+            let (x, y) = place.at(s.t, s.e, s.v);
+            let Some(e) = self.residual_at(v, k, x, y, inv) else {
+                cost += w;
+                continue;
+            };
+            if !e.is_finite() {
+                cost += w;
+                continue;
+            }
+            cost += w * e / (1.0 + e);
+            // As bits: for the non-negative values here (e is finite and at least +0), the
+            // integer order of the bits is f32::total_cmp's, and integers select faster.
+            res.push((e / inv / 3.0).sqrt().to_bits());
+            if e < INLIER_E {
+                inl += w;
+                pe += w * lp;
+                ce += w * lc;
+            }
+        }
+        let residual = if res.is_empty() {
+            0.0
+        } else {
+            let q = (res.len() * 2) / 5;
+            f32::from_bits(*res.select_nth_unstable(q).1)
+        };
+        let share = |a: f32, b: f32| if b > 0.0 { a / b } else { 0.0 };
+        Fit {
+            cost: if wsum > 0.0 { cost / wsum } else { 1.0 },
+            inliers: share(inl, wsum),
+            parent_end: share(pe, pw),
+            child_end: share(ce, cw),
+            parent_mass: pw,
+            child_mass: cw,
+            residual,
+        }
+    }
+
+    /// Gauss–Newton normal equations of the data term `Σ w_s ρ(e_s)` (scaled by `weight / Σw`)
+    /// at the pose `(p, c)` on view `v` (every `2^k`-th sample at level `k`; a sample on a pixel
+    /// that looks like the clean plate costs 1 and does not pull), with iteratively reweighted least squares (sample weight
+    /// `ρ'(e) = 1/(1+e)²`), the colour scale widened `widen` times (graduated non-convexity: a
+    /// wide scale first lets samples on a misplaced sharp edge still pull).
+    pub fn normal(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
+        let (img, gain) = (&v.img, v.gain);
+        let place = self.placement(p, c);
+        let inv = self.inv_scale() / (widen * widen);
+        let mut out = Normal::default();
+        let stride = 1usize << img.k;
+        let scale = (weight * stride as f32 / self.weight_sum()) as f64;
+        let (u, n, len, omega, gamma) = (place.u, place.n, place.len, place.w, self.width_exponent);
+        let lv = img.k;
+        for (k, s) in self.samples.iter().enumerate().step_by(stride) {
+            let sw = self.weight(k);
+            if sw <= 0.0 {
+                continue;
+            }
+            let (x, y) = place.at(s.t, s.e, s.v);
+            let Some((col, gx, gy)) = img.bilinear_grad(x, y) else {
+                out.cost += scale * sw as f64;
+                continue;
+            };
+            if self.trust_plate && v.looks_background(x, y, col) {
+                out.cost += scale * sw as f64;
+                continue;
+            }
+            let tm = &self.template[k][lv];
+            let r = [
+                col[0] - gain * tm[0],
+                col[1] - gain * tm[1],
+                col[2] - gain * tm[2],
+            ];
+            let e = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) * inv;
+            let w = sw / ((1.0 + e) * (1.0 + e));
+            out.cost += scale * (sw * e / (1.0 + e)) as f64;
+            // Image-space normal equations of this sample: A = Gᵀ G, b = Gᵀ r (2×2, 2).
+            let (mut a00, mut a01, mut a11, mut b0, mut b1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for ch in 0..3 {
+                a00 += gx[ch] * gx[ch];
+                a01 += gx[ch] * gy[ch];
+                a11 += gy[ch] * gy[ch];
+                b0 += gx[ch] * r[ch];
+                b1 += gy[ch] * r[ch];
+            }
+            // Jacobian of the sample position: columns for P.x, P.y, C.x, C.y.
+            let cols: [[f32; 2]; 4] = match self.shape {
+                Shape::Patch => [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0], [0.0, 0.0]],
+                Shape::Bone => {
+                    // With d = C − P: ∂û/∂d = n̂ n̂ᵀ/L, ∂n̂/∂d = −û n̂ᵀ/L, ∂ω/∂d = −γ ω ûᵀ/L, so
+                    // ∂x/∂C·δ = t δ + ω (n̂·δ)/L (e n̂ − v û) − γ ω (û·δ)/L (e û + v n̂),
+                    // and ∂x/∂P = I − ∂x/∂C.
+                    let m1 = (n * s.e - u * s.v) * (omega / len);
+                    let m2 = (u * s.e + n * s.v) * (gamma * omega / len);
+                    let cx = [s.t + n.x * m1.x - u.x * m2.x, n.x * m1.y - u.x * m2.y];
+                    let cy = [n.y * m1.x - u.y * m2.x, s.t + n.y * m1.y - u.y * m2.y];
+                    [[1.0 - cx[0], -cx[1]], [-cy[0], 1.0 - cy[1]], cx, cy]
+                }
+            };
+            let f = (2.0 * inv * w) as f64 * scale;
+            let mut ab = [[0.0f32; 2]; 4];
+            for (i, col) in cols.iter().enumerate() {
+                ab[i] = [a00 * col[0] + a01 * col[1], a01 * col[0] + a11 * col[1]];
+                out.g[i] += f * (b0 * col[0] + b1 * col[1]) as f64;
+            }
+            for i in 0..4 {
+                for j in i..4 {
+                    out.h[i][j] += f * (cols[i][0] * ab[j][0] + cols[i][1] * ab[j][1]) as f64;
+                }
+            }
+        }
+        for i in 0..4 {
+            for j in 0..i {
+                out.h[i][j] = out.h[j][i];
+            }
+        }
+        out
+    }
+}

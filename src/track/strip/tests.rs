@@ -1,0 +1,218 @@
+//! Unit tests of the strip: fit, gradient against finite differences, Gauss–Newton steps,
+//! learning.
+
+use super::*;
+const LEVELS: usize = 3;
+use crate::track::pixels::Pyramid;
+use image::RgbImage;
+
+/// A smooth 80×60 frame: a bar from `p` to `c`, 5 px half-width with soft edges, coloured
+/// by a sine of the position along it (so it has texture to lock on).
+fn smooth_bar(p: Point, c: Point) -> RgbImage {
+    smooth_bar_scaled(p, c, 1.0)
+}
+
+/// [`smooth_bar`] drawn `k` times larger (frame, bar width, soft edge and texture).
+fn smooth_bar_scaled(p: Point, c: Point, k: f32) -> RgbImage {
+    RgbImage::from_fn((80.0 * k) as u32, (60.0 * k) as u32, |x, y| {
+        let q = Point::new(x as f32, y as f32);
+        let d = c - p;
+        let t = (q - p).dot(&d) / d.norm_squared();
+        let ext = Extent {
+            a: p,
+            b: c,
+            ext_a: 0.0,
+            ext_b: 0.0,
+            half_width: 0.0,
+        };
+        let inside = ((5.0 * k - ext.distance(q)) / (3.0 * k)).clamp(0.0, 1.0);
+        let phase = (t * 12.0).sin();
+        let bar = [150.0 + 90.0 * phase, 120.0 - 80.0 * phase, 60.0];
+        let bg = [90.0, 110.0, 130.0];
+        image::Rgb([0, 1, 2].map(|k| (bg[k] + (bar[k] - bg[k]) * inside) as u8))
+    })
+}
+
+fn spec() -> StripSpec {
+    StripSpec {
+        max_samples: 400,
+        coarse_samples: 40,
+        sigma: 12.0,
+        width_exponent: 0.0,
+    }
+}
+
+fn extent(p: Point, c: Point, ext: f32) -> Extent {
+    Extent {
+        a: p,
+        b: c,
+        ext_a: ext,
+        ext_b: ext,
+        half_width: 6.0,
+    }
+}
+
+/// Level `k` of `pyr` as a view with no plate and no gain.
+fn view<'a>(pyr: &'a Pyramid, k: usize) -> View<'a> {
+    View {
+        img: pyr.level(k),
+        plate: None,
+        gain: 1.0,
+        bg_inv: 0.0,
+    }
+}
+
+fn bone(img: &Pyramid, p: Point, c: Point, ext: f32) -> Strip {
+    // Background: within 30 levels (L1) of the backdrop colour, as the plate test does.
+    let bg = |x: f32, y: f32| {
+        img.level(0).bilinear(x, y).is_some_and(|c| {
+            (c[0] - 90.0).abs() + (c[1] - 110.0).abs() + (c[2] - 130.0).abs() < 30.0
+        })
+    };
+    Strip::sample(
+        img,
+        Shape::Bone,
+        (0, 1),
+        extent(p, c, ext),
+        &spec(),
+        &[],
+        &bg,
+    )
+    .unwrap()
+}
+
+#[test]
+fn fits_its_seed_pose_and_not_a_shifted_one() {
+    let (p, c) = (Point::new(20.3, 30.4), Point::new(50.2, 30.1));
+    let img = smooth_bar(p, c);
+    let pyr = Pyramid::new(&img, LEVELS);
+    let s = bone(&pyr, p, c, 3.0);
+    let at_seed = s.fit(&view(&pyr, 0), p, c);
+    assert!(at_seed.cost < 1e-3 && at_seed.inliers > 0.99, "{at_seed:?}");
+    let off = Vector::new(0.0, 3.0);
+    let shifted = s.fit(&view(&pyr, 0), p + off, c + off);
+    assert!(shifted.inliers < 0.7, "{shifted:?}");
+}
+
+#[test]
+fn gradient_matches_finite_differences() {
+    // Off the pixel grid, with samples past both ends (e ≠ 0), a limb that thins as it
+    // stretches, at every pyramid level (the scene drawn 2^level times larger, so that it
+    // is as smooth at that level as at level 0: the analytic gradient is a central
+    // difference half a level pixel wide).
+    for lv in 0..LEVELS {
+        let k = (1 << lv) as f32;
+        let (p, c) = (Point::new(20.3, 30.4) * k, Point::new(50.2, 30.1) * k);
+        let seed = smooth_bar_scaled(p, c, k);
+        let frame = smooth_bar_scaled(Point::new(21.0, 30.5) * k, Point::new(51.0, 33.0) * k, k);
+        let (sp, fp) = (Pyramid::new(&seed, LEVELS), Pyramid::new(&frame, LEVELS));
+        let mut s = bone(&sp, p, c, 4.0 * k);
+        s.width_exponent = 0.5;
+        let (p0, c0) = (
+            p + Vector::new(0.3, -0.2) * k,
+            c + Vector::new(1.5, 0.7) * k,
+        );
+        let img = view(&fp, lv);
+        let ne = s.normal(&img, p0, c0, 1.0, 1.0);
+        let cost = |q: [f32; 4]| {
+            let (a, b) = (Point::new(q[0], q[1]), Point::new(q[2], q[3]));
+            s.normal(&img, a, b, 1.0, 1.0).cost
+        };
+        let q0 = [p0.x, p0.y, c0.x, c0.y];
+        for i in 0..4 {
+            let h = 0.05 * k;
+            let (mut a, mut b) = (q0, q0);
+            a[i] += h;
+            b[i] -= h;
+            let fd = (cost(a) - cost(b)) / (2.0 * h as f64);
+            assert!(
+                (fd - ne.g[i]).abs() < 0.2 * fd.abs().max(1e-3),
+                "level {lv}, coordinate {i}: finite difference {fd}, analytic {}",
+                ne.g[i]
+            );
+        }
+    }
+}
+
+#[test]
+fn gauss_newton_steps_towards_a_turned_and_stretched_bone() {
+    // Seed: horizontal, 30 px. Frame: turned and stretched.
+    let (p, c) = (Point::new(20.0, 30.0), Point::new(50.0, 30.0));
+    let (p1, c1) = (Point::new(21.0, 30.5), Point::new(52.0, 33.0));
+    let (seed, frame) = (smooth_bar(p, c), smooth_bar(p1, c1));
+    let (sp, fp) = (Pyramid::new(&seed, LEVELS), Pyramid::new(&frame, LEVELS));
+    let s = bone(&sp, p, c, 0.0);
+    let (mut pp, mut cc) = (p, c);
+    for k in 0..30 {
+        let ne = s.normal(&view(&fp, 2 - k / 10), pp, cc, 100.0, 1.0);
+        let h = nalgebra::Matrix4::from_fn(|i, j| ne.h[i][j] + if i == j { 1e-3 } else { 0.0 });
+        let g = nalgebra::Vector4::from_fn(|i, _| ne.g[i]);
+        let d = h.cholesky().unwrap().solve(&(-g));
+        let clamp = |v: f64| v.clamp(-2.0, 2.0) as f32;
+        pp += Vector::new(clamp(d[0]), clamp(d[1]));
+        cc += Vector::new(clamp(d[2]), clamp(d[3]));
+    }
+    assert!((pp - p1).norm() < 0.3, "{pp:?} vs {p1:?}");
+    assert!((cc - c1).norm() < 0.3, "{cc:?} vs {c1:?}");
+}
+
+#[test]
+fn a_pixel_moving_with_another_bone_loses_its_weight() {
+    // Seed: bar A horizontal; strip B claims A's pixels too. Frame: A stays, B's bone moved
+    // away. B's samples fit where A's bone carries them, so they fade.
+    let (p, c) = (Point::new(20.3, 30.4), Point::new(50.2, 30.1));
+    let img = smooth_bar(p, c);
+    let pyr = Pyramid::new(&img, LEVELS);
+    let a = bone(&pyr, p, c, 0.0);
+    let mut b = bone(&pyr, p, c, 0.0);
+    b.link(1, &[a.extent, b.extent]);
+    let moved = (p + Vector::new(0.0, 15.0), c + Vector::new(0.0, 15.0));
+    let others = [Some(a.placement(p, c)), None];
+    let before = b.weight_sum();
+    let views: Vec<View> = (0..LEVELS).map(|k| view(&pyr, k)).collect();
+    let fit = Fit::default();
+    for _ in 0..10 {
+        b.learn(&views, moved, &others, 0.2, 0.5, (5.0, 40.0), &fit);
+    }
+    assert!(
+        b.weight_sum() < 0.1 * before,
+        "{} of {before}",
+        b.weight_sum()
+    );
+    // A sample that fits nowhere (hidden) keeps its weight.
+    let mut c2 = bone(&pyr, p, c, 0.0);
+    c2.link(1, &[a.extent, c2.extent]);
+    for _ in 0..10 {
+        c2.learn(&views, moved, &[None, None], 0.2, 0.5, (5.0, 40.0), &fit);
+    }
+    assert_eq!(c2.weight_sum(), before);
+}
+
+#[test]
+fn learns_the_lengths_a_bone_is_seen_at_only_where_it_fits() {
+    // Seed: 30 px. Frames: the bar squashed to 24 px and stretched to 36 px.
+    let (p, c) = (Point::new(20.0, 30.0), Point::new(50.0, 30.0));
+    let seed_img = smooth_bar(p, c);
+    let seed = Pyramid::new(&seed_img, LEVELS);
+    let mut s = bone(&seed, p, c, 0.0);
+    assert_eq!(s.seen_lengths(), (30.0, 30.0));
+    for end in [44.0, 56.0] {
+        let c1 = Point::new(end, 30.0);
+        let img = smooth_bar(p, c1);
+        let pyr = Pyramid::new(&img, LEVELS);
+        let views: Vec<View> = (0..LEVELS).map(|k| view(&pyr, k)).collect();
+        let fit = s.fit(&views[0], p, c1);
+        s.learn(&views, (p, c1), &[None], 0.1, 0.5, (5.0, 40.0), &fit);
+    }
+    let (lo, hi) = s.seen_lengths();
+    assert!(
+        (lo - 24.0).abs() < 1e-3 && (hi - 36.0).abs() < 1e-3,
+        "{lo} {hi}"
+    );
+    // Laid where it does not fit (moved off the bar), a length says nothing.
+    let (p2, c2) = (p + Vector::new(0.0, 20.0), Point::new(70.0, 50.0));
+    let views: Vec<View> = (0..LEVELS).map(|k| view(&seed, k)).collect();
+    let fit = s.fit(&views[0], p2, c2);
+    s.learn(&views, (p2, c2), &[None], 0.1, 0.5, (5.0, 40.0), &fit);
+    assert_eq!(s.seen_lengths(), (lo, hi));
+}
