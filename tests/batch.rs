@@ -77,6 +77,24 @@ impl Shots {
             .current_dir(self.tmp.path());
         common::interrupt(cmd, started)
     }
+
+    /// [`Shots::interrupt`], which must happen: checks the batch exited with 130 within 5 s of
+    /// the signal and did not panic, and returns its stderr.
+    fn interrupted(&self, extra: &[&str], started: impl Fn() -> bool) -> String {
+        let (o, took) = self
+            .interrupt(extra, started)
+            .expect("SIGINT while the batch was tracking");
+        eprintln!("{extra:?}: exited {took:?} after SIGINT");
+        assert_exit(&o, 130);
+        assert!(
+            took < Duration::from_secs(5),
+            "exit took {took:?} after SIGINT"
+        );
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(!err.contains("panicked"), "{err}");
+        assert_eq!(stdout(&o), "", "no table for an interrupted batch");
+        err
+    }
 }
 
 /// `batch shots --seeds {dir}/{stem}.toml EXTRA`.
@@ -348,16 +366,7 @@ fn ctrl_c_stops_the_batch_cleanly_and_a_rerun_finishes_it() {
     // keeps its checkpoint, the third never starts.
     let cut = s.path("cut");
     let c2_first = cut.join("c2.mocap/segments/000.csv");
-    let (o, took) = s
-        .interrupt(&["--jobs", "1", "--out-dir", "cut"], || c2_first.exists())
-        .expect("SIGINT while tracking c2");
-    eprintln!("--jobs 1: exited {took:?} after SIGINT");
-    assert_exit(&o, 130);
-    assert!(
-        took < Duration::from_secs(5),
-        "exit took {took:?} after SIGINT"
-    );
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = s.interrupted(&["--jobs", "1", "--out-dir", "cut"], || c2_first.exists());
     assert!(
         err.contains(
             "mocap2d: batch interrupted: 1 of 3 clips done, stopped part-way: shots/c2.mp4, 1 \
@@ -365,8 +374,6 @@ fn ctrl_c_stops_the_batch_cleanly_and_a_rerun_finishes_it() {
         ),
         "{err}"
     );
-    assert!(!err.contains("panicked"), "{err}");
-    assert_eq!(stdout(&o), "", "no table for an interrupted batch");
     assert!(!cut.join("batch-summary.csv").exists());
     assert_eq!(assert_consistent(&cut, &whole), 1);
     assert_eq!(checkpoint(&cut.join("c2.mocap")), (false, 1));
@@ -390,16 +397,7 @@ fn ctrl_c_stops_the_batch_cleanly_and_a_rerun_finishes_it() {
     // Two at a time: both running clips stop at their next frame.
     let two = s.path("two");
     let c1_first = two.join("c1.mocap/segments/000.csv");
-    let (o, took) = s
-        .interrupt(&["--jobs", "2", "--out-dir", "two"], || c1_first.exists())
-        .expect("SIGINT while tracking c1 and c2");
-    eprintln!("--jobs 2: exited {took:?} after SIGINT");
-    assert_exit(&o, 130);
-    assert!(
-        took < Duration::from_secs(5),
-        "exit took {took:?} after SIGINT"
-    );
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = s.interrupted(&["--jobs", "2", "--out-dir", "two"], || c1_first.exists());
     assert!(err.contains("stopped part-way: shots/c1.mp4"), "{err}");
     assert!(assert_consistent(&two, &whole) >= 1);
     assert_exit(&s.batch(&["--jobs", "2", "--out-dir", "two"]), 0);

@@ -78,8 +78,10 @@ impl Tracker {
     }
 
     /// Looks for hidden joint `j`'s bone all around its parent (lengths within 15 % of its
-    /// current one, and any it has been seen at: [`seen_stretch`](super::strip::Strip::seen_stretch)), as it was laid and
-    /// mirrored, on the search view `v`, judged on `judge`. Returns the child position and whether the bone is mirrored when enough of it fits.
+    /// current one, and any it has been seen at:
+    /// [`seen_lengths`](super::strip::Strip::seen_lengths)), as it was laid and mirrored, on the
+    /// search view `v`, judged on `judge`. Returns the child position and whether the bone is
+    /// mirrored when enough of it fits.
     pub(super) fn reacquire(
         &self,
         v: &View,
@@ -150,21 +152,17 @@ impl Tracker {
             }
             l
         };
-        let pairs: Vec<(f32, f32)> = lengths(par, d1.norm())
-            .into_iter()
-            .flat_map(|a| lengths(j, d2.norm()).into_iter().map(move |b| (a, b)))
-            .collect();
+        let (l1s, l2s) = (lengths(par, d1.norm()), lengths(j, d2.norm()));
+        let centre = [d1.y.atan2(d1.x), d2.y.atan2(d2.x)];
+        let step = |l: f32| {
+            (p.search_step_px * v.img.scale / l).clamp(2f32.to_radians(), 10f32.to_radians())
+        };
         let mut found: Option<(Point, Point, bool, f32)> = None;
-        for (l1, l2) in pairs {
+        for (l1, l2) in l1s.iter().flat_map(|&a| l2s.iter().map(move |&b| (a, b))) {
             let w = Window {
-                centre: [d1.y.atan2(d1.x), d2.y.atan2(d2.x)],
+                centre,
                 half: [PI, PI],
-                step: [
-                    (p.search_step_px * v.img.scale / l1)
-                        .clamp(2f32.to_radians(), 10f32.to_radians()),
-                    (p.search_step_px * v.img.scale / l2)
-                        .clamp(2f32.to_radians(), 10f32.to_radians()),
-                ],
+                step: [step(l1), step(l2)],
             };
             let at = |q: [f32; 2]| {
                 let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;

@@ -326,8 +326,8 @@ impl Tracker {
 
     /// Motion models and statuses from the frame's final positions `x` and `evidence`. A bone
     /// is measured only when both its ends are seen. An `anchored` joint (hidden, but placed by
-    /// a child's bone found whole) is `low`, not hidden, and its filters still coast. Returns the placement of every strip whose
-    /// bone was clearly seen, for [`Tracker::learn`].
+    /// a child's bone found whole) is `low`, not hidden, and its filters still coast. Returns
+    /// the placement of every strip whose bone was clearly seen, for [`Tracker::learn`].
     fn update(
         &mut self,
         pred: &[Prediction],
