@@ -82,6 +82,8 @@ fn fast_punches_and_kicks_stay_tracked() {
 #[test]
 fn squash_and_stretch_is_tracked() {
     // Measured: median 0.40 px, PCK@5 94.8 % (issue target: >= 95 %; not reached yet).
+    // Without searching hidden bones at their seen lengths and counting a joint placed by its
+    // found child as seen: 93.3 %.
     assert_accuracy(Scenario::Squash, 0.6, 0.94);
 }
 

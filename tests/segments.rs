@@ -220,7 +220,8 @@ fn corrections_of_flagged_segments_lift_accuracy() {
     let s = Synth::new(Scenario::Long, 320, 180, Some(240));
     let (before, after) = correct_flagged(&s, 40);
     // Measured: 83.6 % -> 96.0 % (all six segments flagged; their seven files corrected).
-    assert!(after >= 0.95, "PCK@5 {before} -> {after}");
+    // Without filling joints hidden in every blended pass between the keyframes: 95.4 %.
+    assert!(after >= 0.957, "PCK@5 {before} -> {after}");
     assert!(after > before);
 }
 
@@ -232,7 +233,8 @@ fn corrections_of_flagged_segments_lift_the_long_clip() {
     let (before, after) = correct_flagged(&s, 150);
     // Measured: 87.7 % -> 94.7 % (every segment flagged, all seven files corrected). The
     // issue's target is 98 %: not reached (see the README, "Segments, corrections and resume").
-    assert!(after >= 0.94, "PCK@5 {before} -> {after}");
+    // Without filling joints hidden in every blended pass between the keyframes: 94.2 %.
+    assert!(after >= 0.945, "PCK@5 {before} -> {after}");
 }
 
 /// Runs the binary with `args`, waiting for it.
