@@ -538,6 +538,27 @@ fn a_missing_or_changed_state_file_is_named_and_rebuilt_from_an_earlier_segment(
     let o = run_bin(&["resume", s(&run), "--segment", "2"]);
     assert_exit(&o, 2, &["002.state", "changed"]);
     assert!(!run.join("history").exists(), "nothing was archived");
+    // A state of an older layout, recorded as written (a run folder of an older mocap2d).
+    let original = &before
+        .iter()
+        .find(|(n, _)| n.ends_with("002.state"))
+        .unwrap()
+        .1;
+    let older = [
+        b"mocap2d tracker state 2\n",
+        &original[original.iter().position(|&b| b == b'\n').unwrap() + 1..],
+    ]
+    .concat();
+    std::fs::write(&state, &older).unwrap();
+    let toml = std::fs::read_to_string(run.join("run.toml")).unwrap();
+    let toml = toml.replace(
+        &mocap2d::run::segments::hash_bytes(original),
+        &mocap2d::run::segments::hash_bytes(&older),
+    );
+    std::fs::write(run.join("run.toml"), toml).unwrap();
+    let o = run_bin(&["resume", s(&run), "--segment", "2"]);
+    assert_exit(&o, 2, &["002.state", "another version", "--segment 0"]);
+    assert!(!run.join("history").exists(), "nothing was archived");
     // Resuming from the segment before rebuilds it: the folder is as track left it.
     let o = run_bin(&["resume", s(&run), "--segment", "1"]);
     assert_exit(&o, 0, &["resumed"]);

@@ -201,12 +201,17 @@ impl Session {
     }
 
     /// Checks that tracking can start at segment `k`: unless it is segment 0 or its file is a
-    /// correction, its state file must be there as written (see [`Session::run`]).
+    /// correction, its state file must be there as written, in this version's layout (see
+    /// [`Session::run`]).
     pub fn check_state(&self, k: u64) -> Result<()> {
         if k == 0 || self.correction(k)?.is_some() {
             return Ok(());
         }
-        self.read_state(k).map(drop)
+        if crate::track::state::is_current(&self.read_state(k)?) {
+            Ok(())
+        } else {
+            Err(self.state_error(k, "was written by another version of mocap2d"))
+        }
     }
 
     /// `segments/NNN.state` of segment `k`, checked against the hash `run.toml` records.

@@ -18,6 +18,12 @@ use crate::geom::Point;
 
 const MAGIC: &[u8] = b"mocap2d tracker state 3\n";
 
+/// Whether `bytes` are a tracker state in this version's layout (a state written by an older
+/// mocap2d is not, and cannot be restored).
+pub fn is_current(bytes: &[u8]) -> bool {
+    bytes.starts_with(MAGIC)
+}
+
 const STATUSES: [Status; 5] = [
     Status::Seed,
     Status::Ok,
