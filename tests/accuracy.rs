@@ -160,8 +160,9 @@ fn flies_clip_runs_and_reports_its_error() {
     let line = &eval(&dir.path().join("run"), &shared.join("gt.csv"), false).unwrap()[0];
     println!("flies: {line}");
     let (median, pck5) = parse_line(line);
-    // Measured: median 0.67 px, PCK@5 69.1 %, PCK@10 71.4 %.
-    assert!(pck5 >= 0.69, "PCK@5 {pck5}");
+    // Measured: median 0.67 px, PCK@5 69.9 %, PCK@10 73.2 % (69.1 % before bodies were kept
+    // apart: the female, lost at frame 1252, was found again on the male and called `ok`).
+    assert!(pck5 >= 0.695, "PCK@5 {pck5}");
     assert!(median <= 1.0, "median {median}");
 }
 
@@ -235,6 +236,97 @@ fn a_body_lost_for_a_while_is_found_again() {
     // Measured: 85.1 % with, 0 % without (frames 75–119).
     assert!(with >= 0.8, "with re-detection: PCK@5 {with}");
     assert!(without < 0.5, "without re-detection: PCK@5 {without}");
+}
+
+/// Two look-alike bodies (the walk character and a copy of it 160 px behind, seeded as two
+/// skeletons): the first vanishes on frame 40 while its twin walks on. Its root coasts and the
+/// whole-frame re-detection looks for it, but it must never be reported seen on top of the twin
+/// (both skeletons on one body, both `ok`); the twin stays tracked.
+#[test]
+fn a_lost_body_is_not_found_again_on_its_look_alike() {
+    use mocap2d::background::Background;
+    use mocap2d::track::Tracker;
+    let clip = render(&SynthOptions {
+        scenario: Scenario::Walk,
+        width: 640,
+        height: 360,
+        seed: 1,
+        frames: Some(64),
+    });
+    let bgi = &clip.background;
+    let xs = clip.gt.iter().flatten().map(|g| g.0);
+    let (lo, hi) = xs.fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x), b.max(x)));
+    let dx: i64 = if lo > 170.0 { -160 } else { 160 };
+    let shift = dx as f32;
+    assert!(
+        lo + shift > 10.0 && hi + shift < 630.0,
+        "the twin leaves the frame"
+    );
+    let frames: Vec<_> = clip
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(f, frame)| {
+            let mut out = if f < 40 { frame.clone() } else { bgi.clone() };
+            for (x, y, px) in frame.enumerate_pixels() {
+                let b = bgi.get_pixel(x, y);
+                let diff: i32 = (0..3).map(|c| (px[c] as i32 - b[c] as i32).abs()).sum();
+                let tx = x as i64 + dx;
+                if diff > 30 && (0..out.width() as i64).contains(&tx) {
+                    out.put_pixel(tx as u32, y, *px);
+                }
+            }
+            out
+        })
+        .collect();
+    // The seed file twice: the twin's joints are named "twin.<name>" and moved by dx.
+    let one = clip.seeds_toml();
+    let (head, body) = one.split_at(one.find("[[joint]]").unwrap());
+    let twin: String = body
+        .lines()
+        .map(|l| {
+            if let Some(v) = l.strip_prefix("x = ") {
+                format!("x = {:.3}\n", v.parse::<f32>().unwrap() + dx as f32)
+            } else if let Some(n) = l.strip_prefix("name = \"") {
+                format!("name = \"twin.{n}\n")
+            } else if let Some(n) = l.strip_prefix("parent = \"") {
+                format!("parent = \"twin.{n}\n")
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let seeds =
+        mocap2d::seed::parse_seeds(&format!("{head}{body}\n{twin}"), Path::new("seeds")).unwrap();
+    let n = clip.joint_names.len();
+    assert_eq!(seeds.joints.len(), 2 * n);
+    let mut t = Tracker::new(
+        Default::default(),
+        &seeds,
+        &frames[0],
+        Some(Background::fit(&[bgi.clone()]).unwrap()),
+    );
+    let (mut on_twin, mut hit, mut total) = (0, 0, 0);
+    for (f, frame) in frames.iter().enumerate().skip(1) {
+        let est = t.step(frame);
+        if f < 40 {
+            continue;
+        }
+        let twin_root = (clip.gt[f][0].0 + dx as f32, clip.gt[f][0].1);
+        let a = est[0];
+        let d = (a.pos.x - twin_root.0).hypot(a.pos.y - twin_root.1);
+        if a.status.seen() && d < 40.0 {
+            on_twin += 1;
+        }
+        for (e, g) in est[n..].iter().zip(&clip.gt[f]) {
+            total += 1;
+            hit += usize::from((e.pos.x - g.0 - dx as f32).hypot(e.pos.y - g.1) <= 5.0);
+        }
+    }
+    let twin_pck = hit as f32 / total as f32;
+    println!("frames the lost body was seen on its twin: {on_twin}; twin PCK@5 {twin_pck}");
+    assert_eq!(on_twin, 0, "the lost body was reported seen on its twin");
+    assert!(twin_pck >= 0.9, "twin PCK@5 {twin_pck}");
 }
 
 /// The same clip tracked on one thread and on two gives byte-identical tracks.

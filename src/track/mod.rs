@@ -21,6 +21,7 @@
 //! Joints hidden for a while are filled afterwards by [`gapfill`] once they are seen again.
 //! Conventions (px, radians clockwise on screen, frames) are [`crate::geom`]'s.
 
+mod bodies;
 pub mod gapfill;
 mod hidden;
 pub mod kalman;

@@ -45,7 +45,7 @@ impl Tracker {
             // Each rigid candidate is then tracked into place as a frame would be, and the
             // one whose root fits best is taken, if it fits as on a frame where it is seen.
             let mut best: Option<(f32, Vec<Point>, bool)> = None;
-            for (placed, flip) in self.redetect_candidates(coarse, r, x) {
+            for (placed, flip) in self.redetect_candidates(coarse, r, x, evidence) {
                 self.flip_strips(&body, flip);
                 let mut trial = x.to_vec();
                 for (&k, &q) in body.iter().zip(&placed) {
@@ -56,6 +56,9 @@ impl Tracker {
                 self.refine(views, &pred, &mut y);
                 let e = self.evidence(&self.fits(judge, &y))[r];
                 self.flip_strips(&body, flip);
+                if self.on_another_body(r, y[r], x, evidence) {
+                    continue;
+                }
                 if e >= p.redetect_share && best.as_ref().is_none_or(|b| e > b.0) {
                     best = Some((e, body.iter().map(|&k| y[k]).collect(), flip));
                 }
@@ -74,8 +77,15 @@ impl Tracker {
 
     /// The best rigid placement over the whole frame of root `r`'s body (joints in
     /// [`Tracker::descendants_and_self`] order) in each of its poses (as at `x`, as on the seed
-    /// frame) laid as it is and mirrored, on the coarse view `v`.
-    fn redetect_candidates(&self, v: &View, r: usize, x: &[Point]) -> Vec<(Vec<Point>, bool)> {
+    /// frame) laid as it is and mirrored, on the coarse view `v`; never on another body seen
+    /// there (`evidence`, see [`Tracker::on_another_body`]).
+    fn redetect_candidates(
+        &self,
+        v: &View,
+        r: usize,
+        x: &[Point],
+        evidence: &[f32],
+    ) -> Vec<(Vec<Point>, bool)> {
         let body = self.descendants_and_self(r);
         let strips: Vec<usize> = body
             .iter()
@@ -106,6 +116,9 @@ impl Tracker {
                 // (infinite) once it cannot be below `limit` (see `Strip::coarse_cost_until`).
                 let count = strips.len() as f32;
                 let cost = |q: [f32; 2], limit: f32| {
+                    if self.on_another_body(r, Point::new(q[0], q[1]), x, evidence) {
+                        return f32::INFINITY;
+                    }
                     let at = |j: usize| Point::new(q[0], q[1]) + rel[slot(j)];
                     let mut sum = 0.0;
                     for &si in &strips {

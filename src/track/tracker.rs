@@ -41,6 +41,8 @@ pub struct Tracker {
     pub(super) frame_max: Point,
     /// Every joint's position on the seed frame (px).
     pub(super) seed_pos: Vec<Point>,
+    /// Each root's body reach on the seed frame (px; see [`Tracker::body_reach`]).
+    pub(super) reach: Vec<f32>,
     /// The last frame's intermediate results, when asked for (see [`Tracker::trace`]).
     trace: Option<Trace>,
     /// Time spent in each part of [`Tracker::step`] so far.
@@ -129,6 +131,7 @@ impl Tracker {
                 seed_frame.width().saturating_sub(1) as f32,
                 seed_frame.height().saturating_sub(1) as f32,
             ),
+            reach: Self::body_reach(&sk.parents, &centres),
             seed_pos: centres,
             trace: None,
             timings: Timings::default(),
@@ -256,7 +259,8 @@ impl Tracker {
             fits = self.fits(&judge, &x);
         }
         let mut evidence = self.evidence(&fits);
-        let none = vec![false; x.len()];
+        let mut none = vec![false; x.len()];
+        self.keep_bodies_apart(&x, &mut evidence, &mut none);
         self.place_hidden(&pred, &evidence, &none, &mut x);
         lap(&mut tm.judge);
         let mut found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
@@ -270,6 +274,7 @@ impl Tracker {
             self.refine(&views, &pred, &mut x);
             fits = self.fits(&judge, &x);
             evidence = self.evidence(&fits);
+            self.keep_bodies_apart(&x, &mut evidence, &mut found);
             self.place_hidden(&pred, &evidence, &found, &mut x);
         }
         let trace = match (searched, refined) {

@@ -1,0 +1,81 @@
+//! Several bodies in one clip (two flies, two characters): one body never takes the place of
+//! another. Bodies that look alike fool the colour cost: a hidden root coasting onto the other
+//! character, or the whole-frame re-detection finding the look-alike, would put both skeletons
+//! on one body and call both `ok`. A body that was hidden on the previous frame and would be seen
+//! again on top of another body that is seen there stays hidden instead (its filters coast, the
+//! re-detection goes on looking elsewhere), so the status tells the user where to look.
+
+use super::Tracker;
+use crate::geom::Point;
+
+impl Tracker {
+    /// Reach (px) of every root's body on the seed frame: the largest distance from the root to
+    /// one of its joints (0 for other joints).
+    pub(super) fn body_reach(parents: &[Option<usize>], seed_pos: &[Point]) -> Vec<f32> {
+        let mut reach = vec![0.0f32; parents.len()];
+        for j in 0..parents.len() {
+            let mut r = j;
+            while let Some(p) = parents[r] {
+                r = p;
+            }
+            reach[r] = reach[r].max((seed_pos[j] - seed_pos[r]).norm());
+        }
+        reach
+    }
+
+    /// Whether root `r` placed at `q` would sit on another body: within half the smaller body's
+    /// reach of a root that was seen on the previous frame and is seen on this one (`evidence`).
+    pub(super) fn on_another_body(
+        &self,
+        r: usize,
+        q: Point,
+        x: &[Point],
+        evidence: &[f32],
+    ) -> bool {
+        (0..x.len()).any(|o| {
+            o != r
+                && self.parents[o].is_none()
+                && self.joints[o].hidden_run == 0
+                && evidence[o] >= self.params.seen_share
+                && (x[o] - q).norm() < self.reach[r].min(self.reach[o])
+        })
+    }
+
+    /// Keeps bodies apart (see the module doc): every joint of a body whose root was hidden on
+    /// the previous frame and would be seen now on another body gets no evidence (and is not
+    /// `found`).
+    pub(super) fn keep_bodies_apart(&self, x: &[Point], evidence: &mut [f32], found: &mut [bool]) {
+        for r in 0..x.len() {
+            if self.parents[r].is_some()
+                || self.joints[r].hidden_run == 0
+                || evidence[r] < self.params.seen_share
+                || !self.on_another_body(r, x[r], x, evidence)
+            {
+                continue;
+            }
+            for k in self.descendants_and_self(r) {
+                evidence[k] = 0.0;
+                found[k] = false;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_body_reaches_as_far_as_its_farthest_joint() {
+        let parents = [None, Some(0), Some(1), None, Some(3)];
+        let pos = [
+            Point::new(0.0, 0.0),
+            Point::new(3.0, 4.0),
+            Point::new(6.0, 8.0),
+            Point::new(100.0, 0.0),
+            Point::new(100.0, 7.0),
+        ];
+        let reach = Tracker::body_reach(&parents, &pos);
+        assert_eq!(reach, vec![10.0, 0.0, 0.0, 7.0, 0.0]);
+    }
+}
