@@ -3,6 +3,11 @@
 //! the joints more than `--thr` px off between `--from` and `--to`.
 //!
 //!     cargo run --release --example realdiag -- CLIP SEEDS GT [--thr PX] [--from F] [--to F]
+//!         [--fits] [--probe FRAME JOINT [--at-estimate]]
+//!
+//! `--fits` prints, between `--from` and `--to`, every bone's fit at the estimate and at the
+//! labels; `--probe` saves /tmp/probe.png, the bone's samples at the labels (or the estimate)
+//! on that frame: green fit, red do not, grey carry no weight.
 use mocap2d::app::{background_for, TrackOptions};
 use mocap2d::decode;
 use mocap2d::track::Tracker;
@@ -61,6 +66,58 @@ fn main() -> anyhow::Result<()> {
             }
             Some(t) => t.step(&frame),
         };
+        if let Some(pos) = args.iter().position(|a| a == "--probe") {
+            // --probe FRAME JOINT: picture of the joint's bone samples at the truth (/tmp/probe.png)
+            let (pf, pj): (u64, &str) = (args[pos + 1].parse().unwrap(), &args[pos + 2]);
+            if pf == idx {
+                let t = tracker.as_ref().unwrap();
+                let j = names.iter().position(|n| n == pj).unwrap();
+                let par = seeds.skeleton.parents[j].unwrap();
+                let g = |k: usize| {
+                    let (x, y) = truth[&(idx, names[k].as_str())];
+                    mocap2d::geom::Point::new(x, y)
+                };
+                let (gp, gc) = if args.iter().any(|a| a == "--at-estimate") {
+                    (est[par].pos, est[j].pos)
+                } else {
+                    (g(par), g(j))
+                };
+                println!("probe {pj} at {idx}: {:?}", t.fit_bone(&frame, j, gp, gc));
+                let pr = t.probe_bone(&frame, j, gp, gc);
+                let (cx, cy) = ((gp.x + gc.x) / 2.0, (gp.y + gc.y) / 2.0);
+                let (x0, y0, sc, half) = (cx - 40.0, cy - 40.0, 6.0f32, 80u32);
+                let mut img = image::RgbImage::new(half * 6, half * 6);
+                for (x, y, px) in img.enumerate_pixels_mut() {
+                    let (fx, fy) = ((x0 + x as f32 / sc) as u32, (y0 + y as f32 / sc) as u32);
+                    if fx < frame.width() && fy < frame.height() {
+                        *px = *frame.get_pixel(fx, fy);
+                    }
+                }
+                for (x, y, e, w) in pr {
+                    let (ix, iy) = (((x - x0 + 0.5) * sc) as i32, ((y - y0 + 0.5) * sc) as i32);
+                    let col = if w <= 0.0 {
+                        image::Rgb([128, 128, 128])
+                    } else if e < 2.5 {
+                        image::Rgb([0, 255, 0])
+                    } else {
+                        image::Rgb([255, 0, 0])
+                    };
+                    for dy in -1..=1 {
+                        for dx in -1..=1 {
+                            let (a, b) = (ix + dx, iy + dy);
+                            if a >= 0
+                                && b >= 0
+                                && (a as u32) < img.width()
+                                && (b as u32) < img.height()
+                            {
+                                img.put_pixel(a as u32, b as u32, col);
+                            }
+                        }
+                    }
+                }
+                img.save("/tmp/probe.png").unwrap();
+            }
+        }
         let mut lines = Vec::new();
         for (j, n) in names.iter().enumerate() {
             let Some(&(x, y)) = truth.get(&(idx, n.as_str())) else {
