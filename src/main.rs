@@ -21,6 +21,22 @@ static STOP: AtomicBool = AtomicBool::new(false);
 /// exits at once (quick commands never poll, and their files are written atomically anyway).
 static POLLED: AtomicBool = AtomicBool::new(false);
 
+/// `println!` that ends the program quietly with success when stdout is a closed pipe
+/// (`mocap2d eval RUN --gt gt.csv --per-joint | head`), as ripgrep does, instead of panicking;
+/// any other write error is reported and exits 1.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            eprintln!("mocap2d: cannot write to standard output: {e}");
+            std::process::exit(1);
+        }
+    }};
+}
+
 /// The first Ctrl-C asks the work to stop at its next frame and leave its output consistent;
 /// a second one exits at once (output files are written through temp files, so even then no
 /// file is left half-written under its real name).
@@ -379,7 +395,7 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
         }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {
-                println!("{line}");
+                out!("{line}");
             }
         }
     }
@@ -407,7 +423,7 @@ fn print_summary(what: &str, s: &app::TrackSummary) {
         s.run_dir.display(),
         counts.join(", ")
     );
-    println!("{}", s.report);
+    out!("{}", s.report);
 }
 
 fn main() -> ExitCode {

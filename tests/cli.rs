@@ -323,6 +323,17 @@ fn eval_prints_accuracy() {
         1 + JOINTS,
         "{out}"
     );
+    // Piped into a reader that has gone (`| head -1`): a quiet success, not a panic.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        .args(["eval", s(&run), "--gt", s(&walk("gt.csv")), "--per-joint"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert_exit(&o, 0);
+    assert!(stderr(&o).is_empty(), "stderr: {}", stderr(&o));
 }
 
 #[test]
