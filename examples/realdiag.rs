@@ -40,7 +40,7 @@ fn main() -> anyhow::Result<()> {
     opts.params = params.clone();
     let mut source = decode::open(&clip, None)?;
     let (w, h) = (source.info().width, source.info().height);
-    let (bg, _) = background_for(&opts, w, h)?;
+    let (bg, _) = background_for(&opts, w, h, Some(&seeds))?;
     let gt = mocap2d::eval::read_gt(&gt_path)?;
     let truth: HashMap<(u64, &str), (f32, f32)> = gt
         .iter()

@@ -1,7 +1,7 @@
 //! Commands, as library calls: each validates its inputs completely before writing anything,
 //! then runs the stages in order. `main.rs` only parses flags and reports.
 
-use crate::background::Background;
+use crate::background::{Background, Limb};
 use crate::decode::{self, FrameSource};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
@@ -99,11 +99,13 @@ fn no_frames(clip: &Path) -> Error {
     }
 }
 
-/// Builds the background model the options ask for.
+/// Builds the background model the options ask for; with `seeds`, a median plate is cleared of
+/// the subjects that sat still on their seed frame (see [`median_background`]).
 pub fn background_for(
     opts: &TrackOptions,
     width: u32,
     height: u32,
+    seeds: Option<&Seeds>,
 ) -> Result<(Option<Background>, String)> {
     if opts.no_background {
         return Ok((None, "none".into()));
@@ -114,12 +116,64 @@ pub fn background_for(
             format!("plate:{}", plate.display()),
         ));
     }
-    let samples = decode::sample_frames(&opts.clip, BACKGROUND_SAMPLES)?;
+    let (bg, desc) = median_background(&opts.clip, opts.fps, seeds)?;
+    Ok((Some(bg), desc))
+}
+
+/// The clip's temporal-median plate over [`BACKGROUND_SAMPLES`] sampled frames, and its
+/// description for `run.toml`: `median:N`, or `median:N,rest` when `seeds` are given and the
+/// subjects that sat still on their seed frame (read at `fps`) are cleared from it
+/// ([`Background::clear_resting_subject`]).
+pub fn median_background(
+    clip: &Path,
+    fps: Option<f64>,
+    seeds: Option<&Seeds>,
+) -> Result<(Background, String)> {
+    let samples = decode::sample_frames(clip, BACKGROUND_SAMPLES)?;
     if samples.is_empty() {
-        return Err(no_frames(&opts.clip));
+        return Err(no_frames(clip));
     }
-    let n = samples.len();
-    Ok((Some(Background::fit(&samples)?), format!("median:{n}")))
+    let mut bg = Background::fit(&samples)?;
+    let mut desc = format!("median:{}", samples.len());
+    if let Some(seeds) = seeds {
+        let seed_frame = guide::read_frame(clip, fps, seeds.frame)?;
+        bg.clear_resting_subject(&samples, &seed_frame, &seed_bodies(seeds));
+        desc += ",rest";
+    }
+    Ok((bg, desc))
+}
+
+/// Each body of `seeds` (a root and its descendants) as limbs on the seed frame: every bone,
+/// reaching half its child's rectangle (the larger side) around it, and every joint's own
+/// rectangle.
+fn seed_bodies(seeds: &Seeds) -> Vec<Vec<Limb>> {
+    let sk = &seeds.skeleton;
+    let boxes = seeds.boxes();
+    let half = |j: usize| 0.5 * boxes[j].w.max(boxes[j].h) as f32;
+    let root = |mut j: usize| {
+        while let Some(p) = sk.parents[j] {
+            j = p;
+        }
+        j
+    };
+    let roots: Vec<usize> = (0..sk.len()).filter(|&j| sk.parents[j].is_none()).collect();
+    roots
+        .iter()
+        .map(|&r| {
+            (0..sk.len())
+                .filter(|&j| root(j) == r)
+                .map(|j| {
+                    let c = boxes[j].centre();
+                    let a = sk.parents[j].map_or(c, |p| boxes[p].centre());
+                    Limb {
+                        a,
+                        b: c,
+                        radius: half(j),
+                    }
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// Tracks every frame from the seed frame on, calling `sink` with each frame's estimates (the
@@ -232,7 +286,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     }
     folder::check_no_corrections(&run_dir)?;
     progress.start("background", None);
-    let (background, bg_desc) = background_for(opts, info.width, info.height)?;
+    let (background, bg_desc) = background_for(opts, info.width, info.height, Some(&seeds))?;
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
     let (bytes, blake3) = hash_clip(&opts.clip)?;

@@ -3,6 +3,7 @@
 //! the template cost (METHOD.md §1, "Background subtraction").
 
 use crate::error::{Error, Result};
+use crate::geom::Point;
 use image::RgbImage;
 use std::path::Path;
 
@@ -136,6 +137,123 @@ impl Background {
     }
 }
 
+/// One limb of a subject on the seed frame, as [`Background::clear_resting_subject`] sees it: a
+/// segment from `a` to `b` (px; `a == b` for a lone joint) and how far the limb reaches around
+/// it (px).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limb {
+    pub a: Point,
+    pub b: Point,
+    pub radius: f32,
+}
+
+impl Limb {
+    /// Distance (px) from `q` to the segment.
+    fn distance(&self, q: Point) -> f32 {
+        let d = self.b - self.a;
+        let len2 = d.norm_squared();
+        let t = if len2 > 1e-9 {
+            ((q - self.a).dot(&d) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (q - (self.a + d * t)).norm()
+    }
+}
+
+impl Background {
+    /// Clears from the plate a subject that sat still (METHOD.md §1): a temporal median keeps
+    /// whatever stays put over most of the sampled frames, so two flies resting for 1000 of 1500
+    /// frames are in it, and then nothing of them counts as foreground (their limbs are measured
+    /// 1 px wide, and a limb laid on the floor looks as good as one laid on the limb).
+    ///
+    /// `bodies` are the subjects on `seed_frame`, each a list of limbs. A body is at rest in the
+    /// plate when most of its limbs' axes match the plate on the seed frame. Within such a body's
+    /// limbs, a pixel that matches the plate on the seed frame takes instead the median of the
+    /// samples that differ from the seed frame there, when at least `max(3, n/8)` of the `n`
+    /// samples do (the subject left) and at least half of those agree with their median (the
+    /// floor it uncovered, not another subject passing). Returns the number of pixels changed.
+    pub fn clear_resting_subject(
+        &mut self,
+        samples: &[RgbImage],
+        seed_frame: &RgbImage,
+        bodies: &[Vec<Limb>],
+    ) -> usize {
+        let (w, h) = self.plate.dimensions();
+        if seed_frame.dimensions() != (w, h) || samples.iter().any(|s| s.dimensions() != (w, h)) {
+            return 0;
+        }
+        let thr = self.threshold;
+        let matches_plate = |x: u32, y: u32| self.distance(seed_frame, x, y) <= thr;
+        let inside = |q: Point| q.x >= 0.0 && q.y >= 0.0 && q.x < w as f32 && q.y < h as f32;
+        let need = (samples.len() / 8).max(3);
+        let mut changed = Vec::new();
+        let mut seen = vec![false; w as usize * h as usize];
+        for body in bodies {
+            // Most of the body's axes look like the plate: the plate holds the body.
+            let (mut on_plate, mut axis) = (0usize, 0usize);
+            for l in body {
+                let steps = (l.b - l.a).norm().ceil().max(1.0) as usize;
+                for i in 0..=steps {
+                    let q = l.a + (l.b - l.a) * (i as f32 / steps as f32);
+                    if inside(q) {
+                        axis += 1;
+                        on_plate += usize::from(matches_plate(q.x as u32, q.y as u32));
+                    }
+                }
+            }
+            if axis == 0 || 2 * on_plate <= axis {
+                continue;
+            }
+            let (mut x0, mut y0, mut x1, mut y1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+            for l in body {
+                for e in [l.a, l.b] {
+                    x0 = x0.min(e.x - l.radius);
+                    y0 = y0.min(e.y - l.radius);
+                    x1 = x1.max(e.x + l.radius);
+                    y1 = y1.max(e.y + l.radius);
+                }
+            }
+            let xs = (x0.floor().max(0.0) as u32)..(x1.ceil().max(0.0) as u32 + 1).min(w);
+            let ys = (y0.floor().max(0.0) as u32)..(y1.ceil().max(0.0) as u32 + 1).min(h);
+            for y in ys {
+                for x in xs.clone() {
+                    let q = Point::new(x as f32, y as f32);
+                    let k = y as usize * w as usize + x as usize;
+                    if seen[k]
+                        || !body.iter().any(|l| l.distance(q) <= l.radius)
+                        || !matches_plate(x, y)
+                    {
+                        continue;
+                    }
+                    seen[k] = true;
+                    let seed = seed_frame.get_pixel(x, y).0;
+                    let away: Vec<[u8; 3]> = samples
+                        .iter()
+                        .map(|s| s.get_pixel(x, y).0)
+                        .filter(|&c| l1(c, seed) > thr)
+                        .collect();
+                    if away.len() < need {
+                        continue;
+                    }
+                    let m: [u8; 3] = std::array::from_fn(|c| {
+                        let mut v: Vec<u8> = away.iter().map(|p| p[c]).collect();
+                        let mid = v.len() / 2;
+                        *v.select_nth_unstable(mid).1
+                    });
+                    if 2 * away.iter().filter(|&&c| l1(c, m) <= thr).count() >= away.len() {
+                        changed.push((x, y, m));
+                    }
+                }
+            }
+        }
+        for &(x, y, m) in &changed {
+            self.plate.put_pixel(x, y, image::Rgb(m));
+        }
+        changed.len()
+    }
+}
+
 #[inline]
 fn l1(a: [u8; 3], b: [u8; 3]) -> u32 {
     (0..3)
@@ -147,6 +265,52 @@ fn l1(a: [u8; 3], b: [u8; 3]) -> u32 {
 mod tests {
     use super::*;
     use image::Rgb;
+
+    #[test]
+    fn a_subject_at_rest_is_cleared_from_the_plate_once_it_leaves() {
+        // A bright bar sits still on frames 0-5 and is gone on frames 6-8: the median keeps it.
+        let floor = Rgb([20, 20, 20]);
+        let frames: Vec<RgbImage> = (0..9)
+            .map(|i| {
+                let mut f = RgbImage::from_pixel(40, 20, floor);
+                if i < 6 {
+                    for x in 10..30 {
+                        for y in 8..12 {
+                            f.put_pixel(x, y, Rgb([200, 200, 200]));
+                        }
+                    }
+                }
+                f
+            })
+            .collect();
+        let mut bg = Background::fit(&frames).unwrap();
+        assert_eq!(bg.plate.get_pixel(20, 10), &Rgb([200, 200, 200]));
+        let limb = Limb {
+            a: Point::new(12.0, 10.0),
+            b: Point::new(28.0, 10.0),
+            radius: 4.0,
+        };
+        // Too few frames without the subject: left as it is.
+        assert_eq!(
+            bg.clear_resting_subject(&frames[..8], &frames[0], &[vec![limb]]),
+            0
+        );
+        let n = bg.clear_resting_subject(&frames, &frames[0], &[vec![limb]]);
+        assert_eq!(n, 20 * 4);
+        assert!(bg.plate.pixels().all(|p| *p == floor));
+        assert!(bg.is_foreground(&frames[0], 20, 10));
+        // A body that moves is not in the plate: nothing to clear.
+        let moving = Limb {
+            a: Point::new(2.0, 2.0),
+            b: Point::new(8.0, 2.0),
+            radius: 2.0,
+        };
+        let mut seed = frames[7].clone();
+        for x in 2..9 {
+            seed.put_pixel(x, 2, Rgb([255, 0, 0]));
+        }
+        assert_eq!(bg.clear_resting_subject(&frames, &seed, &[vec![moving]]), 0);
+    }
 
     #[test]
     fn median_removes_a_moving_square() {

@@ -160,9 +160,11 @@ fn flies_clip_runs_and_reports_its_error() {
     let line = &eval(&dir.path().join("run"), &shared.join("gt.csv"), false).unwrap()[0];
     println!("flies: {line}");
     let (median, pck5) = parse_line(line);
-    // Measured: median 0.67 px, PCK@5 69.9 %, PCK@10 73.2 % (69.1 % before bodies were kept
-    // apart: the female, lost at frame 1252, was found again on the male and called `ok`).
-    assert!(pck5 >= 0.695, "PCK@5 {pck5}");
+    // Measured: median 0.64 px, PCK@5 74.4 %, PCK@10 77.9 %. 69.1 % before bodies were kept
+    // apart (the female, lost at frame 1252, was found again on the male and called `ok`);
+    // 69.9 % before the plate was cleared of the flies resting on the seed frame (the median
+    // plate held them, so their strips were only ~5 px wide once they walked).
+    assert!(pck5 >= 0.74, "PCK@5 {pck5}");
     assert!(median <= 1.0, "median {median}");
 }
 

@@ -77,7 +77,7 @@ pub fn guide(opts: &GuideOptions) -> Result<GuideSummary> {
         background: opts.background.clone(),
         ..TrackOptions::new(&opts.clip, "")
     };
-    let (bg, _) = background_for(&track_opts, w, h)?;
+    let (bg, _) = background_for(&track_opts, w, h, None)?;
     let bg = bg.expect("background_for gives a model unless --no-background");
     let mask = guide::silhouette(&frame, &bg);
     let area = mask.pixels().filter(|p| p.0[0] != 0).count() as u64;

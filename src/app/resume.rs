@@ -3,7 +3,7 @@
 //! the previous `tracks.csv` goes to `history/`.
 
 use super::segmented::Session;
-use super::{TrackSummary, BACKGROUND_SAMPLES};
+use super::{median_background, TrackSummary, BACKGROUND_SAMPLES};
 use crate::background::Background;
 use crate::decode;
 use crate::error::{Error, Result};
@@ -11,7 +11,7 @@ use crate::progress::Progress;
 use crate::run::manifest::RUN_TOML;
 use crate::run::segments::{self, hash_file};
 use crate::run::{folder, hash_clip, Manifest};
-use crate::seed::read_seeds;
+use crate::seed::{read_seeds, Seeds};
 use crate::track::TrackParams;
 use std::path::{Path, PathBuf};
 
@@ -48,7 +48,7 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
         None => return Ok(None),
     };
     let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
-    let background = background_of(&manifest, &clip, &manifest_path)?;
+    let background = background_of(&manifest, &base, &clip, &manifest_path)?;
     let mut session = Session {
         run_dir: run_dir.clone(),
         base,
@@ -235,7 +235,12 @@ fn pick_segment(opts: &ResumeOptions, m: &Manifest, run_dir: &Path) -> Result<Op
 }
 
 /// The background model the run used, rebuilt as `run.toml` describes it.
-fn background_of(m: &Manifest, clip: &Path, manifest_path: &Path) -> Result<Option<Background>> {
+fn background_of(
+    m: &Manifest,
+    seeds: &Seeds,
+    clip: &Path,
+    manifest_path: &Path,
+) -> Result<Option<Background>> {
     let bg = if m.background == "none" {
         None
     } else if let Some(plate) = m.background.strip_prefix("plate:") {
@@ -244,6 +249,8 @@ fn background_of(m: &Manifest, clip: &Path, manifest_path: &Path) -> Result<Opti
             m.width,
             m.height,
         )?)
+    } else if m.background.ends_with(",rest") {
+        Some(median_background(clip, Some(m.fps), Some(seeds))?.0)
     } else {
         let samples = decode::sample_frames(clip, BACKGROUND_SAMPLES)?;
         Some(Background::fit(&samples)?)

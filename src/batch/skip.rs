@@ -37,7 +37,9 @@ fn same_inputs(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {
     let background_same = if opts.no_background {
         m.background == "none"
     } else {
-        opts.background.is_none() && m.background.starts_with("median:")
+        opts.background.is_none()
+            && m.background.starts_with("median:")
+            && m.background.ends_with(",rest")
     };
     let seeds = std::fs::read(&opts.seeds).ok()?;
     let same = m.tool == "mocap2d"

@@ -37,7 +37,8 @@ pub struct Manifest {
     pub joints: usize,
     /// blake3 of the seed file as given.
     pub seeds_blake3: String,
-    /// `median:N` (temporal median of N sampled frames), `plate:PATH`, or `none`.
+    /// `median:N,rest` (temporal median of N sampled frames, cleared of subjects at rest on the
+    /// seed frame; `median:N` from mocap2d before that: not cleared), `plate:PATH`, or `none`.
     pub background: String,
     pub background_threshold: u32,
     /// Frames per segment: a checkpoint and a file to correct (`segments/NNN.toml`) every this many frames
