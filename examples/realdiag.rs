@@ -7,7 +7,8 @@
 //!
 //! `--fits` prints, between `--from` and `--to`, every bone's fit at the estimate and at the
 //! labels; `--probe` saves /tmp/probe.png, the bone's samples at the labels (or the estimate)
-//! on that frame: green fit, red do not, grey carry no weight.
+//! on that frame: green fit, red do not, grey carry no weight. The clean plate goes to
+//! /tmp/plate.png.
 use mocap2d::app::{background_for, TrackOptions};
 use mocap2d::decode;
 use mocap2d::track::Tracker;
@@ -41,6 +42,10 @@ fn main() -> anyhow::Result<()> {
     let mut source = decode::open(&clip, None)?;
     let (w, h) = (source.info().width, source.info().height);
     let (bg, _) = background_for(&opts, w, h, Some(&seeds))?;
+    if let Some(b) = &bg {
+        b.plate.save("/tmp/plate.png")?;
+        eprintln!("clean plate saved to /tmp/plate.png");
+    }
     let gt = mocap2d::eval::read_gt(&gt_path)?;
     let truth: HashMap<(u64, &str), (f32, f32)> = gt
         .iter()
