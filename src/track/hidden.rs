@@ -2,7 +2,7 @@
 //! "Occlusion": the motion model keeps it on its path), and how it is found again.
 
 use super::motion::Prediction;
-use super::search::{grid_min, Window};
+use super::search::{grid_min_bounded, Window};
 use super::strip::View;
 use super::tracker::Tracker;
 use crate::geom::{Point, Vector};
@@ -106,7 +106,9 @@ impl Tracker {
         let at = |q: [f32; 2]| x[par] + Vector::new(q[0].cos(), q[0].sin()) * q[1].exp();
         let mut found: Option<(Point, bool, f32)> = None;
         for m in [s.mirrored, !s.mirrored] {
-            let (best, _) = grid_min(&w, |q| s.coarse_cost_as(v, x[par], at(q), m));
+            let (best, _) = grid_min_bounded(&w, |q, limit| {
+                s.coarse_cost_below(v, x[par], at(q), m, limit)
+            });
             let c = at(best);
             let fit = s.fit_as(judge, x[par], c, m);
             if s.found(&fit, p.reacquire_share, false)
@@ -169,9 +171,9 @@ impl Tracker {
                 (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
             };
             for m in [s.mirrored, !s.mirrored] {
-                let (best, _) = grid_min(&w, |q| {
+                let (best, _) = grid_min_bounded(&w, |q, limit| {
                     let (b, c) = at(q);
-                    s.coarse_cost_as(v, b, c, m)
+                    s.coarse_cost_below(v, b, c, m, limit)
                 });
                 let (b, c) = at(best);
                 let fit = s.fit_as(judge, b, c, m);

@@ -70,12 +70,21 @@ impl<'a> Image<'a> {
         self.w == other.w && self.h == other.h
     }
 
+    /// The 2×2 pixels of a cell found by [`Image::cell`]: the top pair and the bottom pair,
+    /// 3 bytes (RGB) each.
+    #[inline(always)]
+    pub fn pairs_at(&self, i: usize) -> (&[u8; 6], &[u8; 6]) {
+        let j = i + 3 * self.w;
+        let t = self.raw[i..i + 6].try_into().expect("6 bytes");
+        let u = self.raw[j..j + 6].try_into().expect("6 bytes");
+        (t, u)
+    }
+
     /// [`Image::bilinear`] at a cell found by [`Image::cell`] (of an image of the same size).
     #[inline(always)]
     pub fn bilinear_at(&self, i: usize, fx: f32, fy: f32) -> Rgb {
         // The two pixel pairs as slices: two bounds checks instead of twelve.
-        let j = i + 3 * self.w;
-        let (t, u) = (&self.raw[i..i + 6], &self.raw[j..j + 6]);
+        let (t, u) = self.pairs_at(i);
         let mut out = [0.0; 3];
         for (k, o) in out.iter_mut().enumerate() {
             let (a, b) = (t[k] as f32, t[3 + k] as f32);

@@ -2,7 +2,7 @@
 //! [`super`]): per-sample residuals, the coarse search cost (with its early stop), the fit
 //! statistics, and the Gauss–Newton normal equations of the refinement.
 
-use super::{Fit, Normal, Shape, Strip, View, INLIER_E, PLATE_CHECK_E};
+use super::{Fit, Normal, Shape, Strip, View, INLIER_E, LANES, PLATE_CHECK_E};
 use crate::geom::Point;
 use crate::track::pixels::Rgb;
 
@@ -15,6 +15,18 @@ fn residual(t: &Rgb, col: Rgb, gain: f32, inv: f32) -> f32 {
         col[2] - gain * t[2],
     );
     (d0 * d0 + d1 * d1 + d2 * d2) * inv
+}
+
+/// `⌊x⌋` as an integer and as a float, for `0 ≤ x < 2²³` (`x as u32` and its `f32`), by float
+/// adds and integer bit operations only, which run side by side over lanes (a conversion
+/// instruction with Rust's saturating semantics does not).
+#[inline(always)]
+fn floor_small(x: f32) -> (u32, f32) {
+    // From 2²³ on, the f32 are the integers: adding it rounds to the nearest one, exactly.
+    const BIG: f32 = 8_388_608.0;
+    let r = (x + BIG) - BIG;
+    let f = if r > x { r - 1.0 } else { r };
+    ((f + BIG).to_bits() - BIG.to_bits(), f)
 }
 
 impl Strip {
@@ -73,15 +85,32 @@ impl Strip {
             .unwrap_or(1.0)
     }
 
-    /// How many coarse samples [`Strip::coarse_cost_until`] reads between two looks at its
-    /// running sum.
-    const BOUND_EVERY: usize = 8;
+    /// [`Strip::coarse_cost_as`] for a bounded grid search
+    /// ([`grid_min_bounded`](crate::track::search::grid_min_bounded)): the cost exactly when it
+    /// is below `limit`, otherwise infinity or the cost (given up once a lower bound reaches
+    /// `limit`, see [`Strip::coarse_cost_until`]).
+    pub fn coarse_cost_below(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        mirrored: bool,
+        limit: f32,
+    ) -> f32 {
+        self.coarse_cost_until(v, p, c, mirrored, |m| m >= limit)
+            .unwrap_or(f32::INFINITY)
+    }
 
-    /// [`Strip::coarse_cost_as`], given up once it is sure to be too high: every few samples,
-    /// `stop(m)` is asked with `m` a lower bound of the cost (the running sum over the total
-    /// weight; every term is at least 0, and rounding is monotonic, so the cost is at least `m`
-    /// to the bit), and `None` is returned when it says so. Otherwise the cost, exactly as
-    /// [`Strip::coarse_cost_as`] computes it.
+    /// [`Strip::coarse_cost_as`], given up once it is sure to be too high: after every block of
+    /// [`LANES`] samples, `stop(m)` is asked with `m` a lower bound of the cost (the running sum
+    /// over the total weight; every term is at least 0, and rounding is monotonic, so the cost
+    /// is at least `m` to the bit), and `None` is returned when it says so. Otherwise the cost,
+    /// exactly as [`Strip::coarse_cost_as`] computes it.
+    ///
+    /// Per sample: its robust cost `ρ(e)` (1 outside the frame or on a pixel that looks like
+    /// the clean plate) times its weight. A block's samples are placed, read and costed side
+    /// by side, each with the same operations as one at a time, and the terms are added in
+    /// sample order, so the sum does not depend on the blocking.
     pub fn coarse_cost_until(
         &self,
         v: &View,
@@ -100,33 +129,96 @@ impl Strip {
             .plate
             .as_ref()
             .filter(|p| self.trust_plate && p.k == lv && p.img.same_size(img));
-        let (mut sum, mut n) = (0.0, 0.0);
-        for (i, s) in self.coarse.iter().enumerate() {
-            let (x, y) = place.at(s.t, s.e, s.v);
-            let (lx, ly) = v.img.to_level(x, y);
-            let e = match img.cell(lx, ly) {
-                Some((at, fx, fy)) => {
-                    let col = img.bilinear_at(at, fx, fy);
-                    let e = residual(&s.template[lv], col, v.gain, inv);
-                    let background = e < PLATE_CHECK_E
-                        && match plate {
-                            Some(p) => v.matches_plate(col, p.img.bilinear_at(at, fx, fy)),
-                            None => self.trust_plate && v.looks_background(x, y, col),
-                        };
-                    if background {
-                        f32::INFINITY
-                    } else {
-                        e
-                    }
+        // `Image::cell`'s test `x0 + 1 < w` on `x0 = ⌊x⌋` for `x ≥ 0` is `x < w − 1` (exact in f32).
+        let xmax = img.width().saturating_sub(1) as f32;
+        let ymax = img.height().saturating_sub(1) as f32;
+        let mut sum = 0.0f32;
+        for (b, blk) in self.coarse.iter().enumerate() {
+            let count = (self.coarse_len - b * LANES).min(LANES);
+            let (mut x, mut y) = ([0.0f32; LANES], [0.0f32; LANES]);
+            let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
+            let (mut x0, mut y0) = ([0u32; LANES], [0u32; LANES]);
+            let mut inside = [false; LANES];
+            for l in 0..LANES {
+                (x[l], y[l]) = place.at(blk.t[l], blk.e[l], blk.v[l]);
+                let (lx, ly) = v.img.to_level(x[l], y[l]);
+                // Also rejects NaN: every comparison with NaN is false. (`&`, not `&&`: no
+                // branches, so that the lanes run side by side.)
+                inside[l] = (lx >= 0.0) & (ly >= 0.0) & (lx < xmax) & (ly < ymax);
+                let (cx, cy) = if inside[l] { (lx, ly) } else { (0.0, 0.0) };
+                let ((ix, flx), (iy, fly)) = (floor_small(cx), floor_small(cy));
+                (x0[l], y0[l]) = (ix, iy);
+                (fx[l], fy[l]) = (cx - flx, cy - fly);
+            }
+            // The four pixels of each sample's cell, channel by channel: a b on top, c d below
+            // (as bytes, turned into floats side by side).
+            let mut at = [0usize; LANES];
+            let mut q8 = [[[0u8; LANES]; 4]; 3];
+            for l in 0..count {
+                if !inside[l] {
+                    continue;
                 }
-                None => f32::INFINITY,
-            };
-            sum += s.w * if e.is_finite() { e / (1.0 + e) } else { 1.0 };
-            n += s.w;
-            if i % Self::BOUND_EVERY == Self::BOUND_EVERY - 1 && stop(sum / self.coarse_weight) {
+                at[l] = (y0[l] as usize * img.width() + x0[l] as usize) * 3;
+                let (t, u) = img.pairs_at(at[l]);
+                for ch in 0..3 {
+                    q8[ch][0][l] = t[ch];
+                    q8[ch][1][l] = t[3 + ch];
+                    q8[ch][2][l] = u[ch];
+                    q8[ch][3][l] = u[3 + ch];
+                }
+            }
+            let q = q8.map(|ch| ch.map(|corner| corner.map(f32::from)));
+            // Bilinear colours (as `Image::bilinear_at`) and residuals (as `residual`).
+            let mut col = [[0.0f32; LANES]; 3];
+            for (ch, out) in col.iter_mut().enumerate() {
+                let [a, b, c, d] = &q[ch];
+                for l in 0..LANES {
+                    let top = a[l] + (b[l] - a[l]) * fx[l];
+                    let bot = c[l] + (d[l] - c[l]) * fx[l];
+                    out[l] = top + (bot - top) * fy[l];
+                }
+            }
+            let tm = &blk.template[lv];
+            let mut e = [0.0f32; LANES];
+            for l in 0..LANES {
+                let d0 = col[0][l] - v.gain * tm[0][l];
+                let d1 = col[1][l] - v.gain * tm[1][l];
+                let d2 = col[2][l] - v.gain * tm[2][l];
+                e[l] = (d0 * d0 + d1 * d1 + d2 * d2) * inv;
+            }
+            // The plate matters only where the sample fits (a poor fit costs nearly 1 anyway).
+            let mut fits = inside;
+            for l in 0..count {
+                // (`e` may be NaN: only a sample that compares below the threshold is checked.)
+                let checked = inside[l] && e[l] < PLATE_CHECK_E;
+                if !checked {
+                    continue;
+                }
+                let rgb = [col[0][l], col[1][l], col[2][l]];
+                let background = match plate {
+                    Some(p) => v.matches_plate(rgb, p.img.bilinear_at(at[l], fx[l], fy[l])),
+                    None => self.trust_plate && v.looks_background(x[l], y[l], rgb),
+                };
+                fits[l] = !background;
+            }
+            let mut term = [0.0f32; LANES];
+            for l in 0..LANES {
+                let r = if fits[l] && e[l].is_finite() {
+                    e[l] / (1.0 + e[l])
+                } else {
+                    1.0
+                };
+                term[l] = blk.w[l] * r;
+            }
+            for &t in &term[..count] {
+                sum += t;
+            }
+            if count == LANES && stop(sum / self.coarse_weight) {
                 return None;
             }
         }
+        // The weights summed in the same order as `coarse_weight` was.
+        let n = self.coarse_weight;
         Some(if n > 0.0 { sum / n } else { 1.0 })
     }
 
@@ -273,5 +365,32 @@ impl Strip {
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::floor_small;
+
+    #[test]
+    fn floor_small_is_the_conversion() {
+        let mut xs = vec![0.0f32, -0.0, 0.5, 1.0, 1.5, 2.5, 3.5, 639.0, 8_388_607.5];
+        for i in 0..2000 {
+            let x = i as f32 * 0.37;
+            xs.extend([
+                x,
+                f32::from_bits(x.to_bits() + 1),
+                f32::from_bits(x.to_bits().max(1) - 1),
+            ]);
+        }
+        for x in xs {
+            let (i, f) = floor_small(x);
+            assert_eq!(
+                (i, f.to_bits()),
+                (x as u32, (x as u32 as f32).to_bits()),
+                "{x}"
+            );
+            assert_eq!((x - f).to_bits(), (x - x as u32 as f32).to_bits(), "{x}");
+        }
     }
 }

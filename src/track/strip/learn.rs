@@ -2,7 +2,7 @@
 //! colours, colour scale, typical shares and costs, the lengths the bone is seen at; and
 //! saving and loading all that ([`Strip::save_learnt`], [`Strip::load_learnt`]).
 
-use super::{Coarse, Fit, Placement, Shape, Strip, View, CLEAR_SHARE, INLIER_E};
+use super::{Coarse, Fit, Placement, Shape, Strip, View, CLEAR_SHARE, INLIER_E, LANES};
 use crate::geom::Point;
 use crate::track::pixels::MAX_LEVELS;
 use crate::track::state;
@@ -12,19 +12,25 @@ impl Strip {
     /// after changing either.
     pub(super) fn refresh_coarse(&mut self) {
         self.coarse.clear();
+        self.coarse_len = 0;
         self.coarse_weight = 0.0;
         let mut k = 0;
         while k < self.samples.len() {
             let w = self.weight(k);
             if w > 0.0 {
                 let s = &self.samples[k];
-                self.coarse.push(Coarse {
-                    t: s.t,
-                    e: s.e,
-                    v: s.v,
-                    w,
-                    template: self.template[k],
-                });
+                let l = self.coarse_len % LANES;
+                if l == 0 {
+                    self.coarse.push(Coarse::default());
+                }
+                let b = self.coarse.last_mut().expect("a block was pushed");
+                (b.t[l], b.e[l], b.v[l], b.w[l]) = (s.t, s.e, s.v, w);
+                for (lv, col) in self.template[k].iter().enumerate() {
+                    for (ch, &c) in col.iter().enumerate() {
+                        b.template[lv][ch][l] = c;
+                    }
+                }
+                self.coarse_len += 1;
                 self.coarse_weight += w;
             }
             k += self.coarse_step;

@@ -216,15 +216,19 @@ struct Sample {
     background: bool,
 }
 
-/// A coarse sample as [`Strip::coarse_cost`] reads it: its strip coordinates, weight and
-/// template colour per level.
-#[derive(Debug, Clone, Copy)]
+/// How many coarse samples [`Strip::coarse_cost`] reads side by side (one [`Coarse`] block).
+const LANES: usize = 8;
+
+/// [`LANES`] coarse samples as [`Strip::coarse_cost`] reads them, field by field so that their
+/// arithmetic runs side by side: strip coordinates, weight and template colour per level and
+/// channel. The last block of a strip is padded with zeros.
+#[derive(Debug, Clone, Copy, Default)]
 struct Coarse {
-    t: f32,
-    e: f32,
-    v: f32,
-    w: f32,
-    template: [Rgb; MAX_LEVELS],
+    t: [f32; LANES],
+    e: [f32; LANES],
+    v: [f32; LANES],
+    w: [f32; LANES],
+    template: [[[f32; LANES]; 3]; MAX_LEVELS],
 }
 
 /// The appearance of one bone (or lone joint).
@@ -246,10 +250,12 @@ pub struct Strip {
     rel: Vec<f32>,
     /// Every `coarse_step`-th sample is used in the coarse search.
     coarse_step: usize,
-    /// Those of the coarse samples that carry weight, with their weight and template: what
-    /// [`Strip::coarse_cost`] reads, one contiguous list instead of four. Kept in step with
-    /// `rel` and `template` by [`Strip::refresh_coarse`].
+    /// Those of the coarse samples that carry weight, with their weight and template, in
+    /// blocks of [`LANES`]: what [`Strip::coarse_cost`] reads. Kept in step with `rel` and
+    /// `template` by [`Strip::refresh_coarse`].
     coarse: Vec<Coarse>,
+    /// Number of samples in `coarse` (the last block may hold fewer than [`LANES`]).
+    coarse_len: usize,
     /// Sum of the weights of `coarse`, in its order.
     coarse_weight: f32,
     /// Colour scale σ (levels per channel) of the robust cost.

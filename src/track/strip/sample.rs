@@ -36,6 +36,7 @@ impl Strip {
             rel: Vec::new(),
             coarse_step: 1,
             coarse: Vec::new(),
+            coarse_len: 0,
             coarse_weight: 0.0,
             sigma: spec.sigma,
             typical: (1.0, 1.0),
