@@ -167,14 +167,13 @@ impl Strip {
                     q8[ch][3][l] = u[3 + ch];
                 }
             }
-            let q = q8.map(|ch| ch.map(|corner| corner.map(f32::from)));
             // Bilinear colours (as `Image::bilinear_at`) and residuals (as `residual`).
             let mut col = [[0.0f32; LANES]; 3];
-            for (ch, out) in col.iter_mut().enumerate() {
-                let [a, b, c, d] = &q[ch];
+            for (out, [a, b, c, d]) in col.iter_mut().zip(&q8) {
                 for l in 0..LANES {
-                    let top = a[l] + (b[l] - a[l]) * fx[l];
-                    let bot = c[l] + (d[l] - c[l]) * fx[l];
+                    let (a, b, c, d) = (a[l] as f32, b[l] as f32, c[l] as f32, d[l] as f32);
+                    let top = a + (b - a) * fx[l];
+                    let bot = c + (d - c) * fx[l];
                     out[l] = top + (bot - top) * fy[l];
                 }
             }

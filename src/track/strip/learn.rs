@@ -8,12 +8,13 @@ use crate::track::pixels::MAX_LEVELS;
 use crate::track::state;
 
 impl Strip {
-    /// Remakes the list of weighted coarse samples from the reliabilities and templates; call
-    /// after changing either.
+    /// Remakes the list of weighted coarse samples (and the total weight) from the
+    /// reliabilities and templates; call after changing either.
     pub(super) fn refresh_coarse(&mut self) {
         self.coarse.clear();
         self.coarse_len = 0;
         self.coarse_weight = 0.0;
+        self.weight_total = self.sum_weights();
         let mut k = 0;
         while k < self.samples.len() {
             let w = self.weight(k);

@@ -258,6 +258,9 @@ pub struct Strip {
     coarse_len: usize,
     /// Sum of the weights of `coarse`, in its order.
     coarse_weight: f32,
+    /// [`Strip::weight_sum`], kept by [`Strip::refresh_coarse`] (the refinement asks for it on
+    /// every step).
+    weight_total: f32,
     /// Colour scale σ (levels per channel) of the robust cost.
     pub sigma: f32,
     /// Share of samples that fit at the parent and the child end on frames where the bone is
@@ -353,8 +356,13 @@ impl Strip {
         ((self.rel[k] - 0.33) * 1.5).clamp(0.0, 1.0)
     }
 
-    /// Sum of the sample weights (at least 1).
+    /// Sum of the sample weights (at least 1), as of the last [`Strip::refresh_coarse`].
     fn weight_sum(&self) -> f32 {
+        self.weight_total
+    }
+
+    /// [`Strip::weight_sum`] summed afresh, in sample order.
+    fn sum_weights(&self) -> f32 {
         (0..self.samples.len())
             .map(|k| self.weight(k))
             .sum::<f32>()

@@ -38,6 +38,7 @@ impl Strip {
             coarse: Vec::new(),
             coarse_len: 0,
             coarse_weight: 0.0,
+            weight_total: 1.0,
             sigma: spec.sigma,
             typical: (1.0, 1.0),
             typical_cost: [0.5; MAX_LEVELS],
