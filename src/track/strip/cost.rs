@@ -111,7 +111,45 @@ impl Strip {
     /// the clean plate) times its weight. A block's samples are placed, read and costed side
     /// by side, each with the same operations as one at a time, and the terms are added in
     /// sample order, so the sum does not depend on the blocking.
+    ///
+    /// On a CPU with AVX2 the same code runs compiled for it (eight lanes in one register; no
+    /// fused multiply-adds, so the same bits).
     pub fn coarse_cost_until(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        mirrored: bool,
+        stop: impl Fn(f32) -> bool,
+    ) -> Option<f32> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { self.coarse_cost_until_avx2(v, p, c, mirrored, stop) };
+        }
+        self.coarse_cost_until_any(v, p, c, mirrored, stop)
+    }
+
+    /// [`Strip::coarse_cost_until`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn coarse_cost_until_avx2(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        mirrored: bool,
+        stop: impl Fn(f32) -> bool,
+    ) -> Option<f32> {
+        self.coarse_cost_until_any(v, p, c, mirrored, stop)
+    }
+
+    /// [`Strip::coarse_cost_until`] for any CPU (inlined into each compiled version).
+    #[inline(always)]
+    fn coarse_cost_until_any(
         &self,
         v: &View,
         p: Point,
@@ -291,7 +329,31 @@ impl Strip {
     /// that looks like the clean plate costs 1 and does not pull), with iteratively reweighted least squares (sample weight
     /// `ρ'(e) = 1/(1+e)²`), the colour scale widened `widen` times (graduated non-convexity: a
     /// wide scale first lets samples on a misplaced sharp edge still pull).
+    ///
+    /// On a CPU with AVX2 the same code runs compiled for it (no fused multiply-adds, so the
+    /// same bits).
     pub fn normal(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { self.normal_avx2(v, p, c, weight, widen) };
+        }
+        self.normal_any(v, p, c, weight, widen)
+    }
+
+    /// [`Strip::normal`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn normal_avx2(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
+        self.normal_any(v, p, c, weight, widen)
+    }
+
+    /// [`Strip::normal`] for any CPU (inlined into each compiled version).
+    #[inline(always)]
+    fn normal_any(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
         let (img, gain) = (&v.img, v.gain);
         let place = self.placement(p, c);
         let inv = self.inv_scale() / (widen * widen);
