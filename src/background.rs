@@ -7,6 +7,8 @@ use crate::geom::Point;
 use image::RgbImage;
 use std::path::Path;
 
+mod median;
+
 /// A clean plate and the colour distance above which a pixel counts as foreground.
 #[derive(Debug, Clone)]
 pub struct Background {
@@ -33,26 +35,15 @@ impl Background {
                 "background: sampled frames differ in size".into(),
             ));
         }
-        let n = samples.len();
-        let mut plate = RgbImage::new(w, h);
         let raw: Vec<&[u8]> = samples.iter().map(|s| s.as_raw().as_slice()).collect();
-        let mut vals = vec![0u8; n];
-        for (k, out) in plate.iter_mut().enumerate() {
-            for (v, r) in vals.iter_mut().zip(&raw) {
-                *v = r[k];
-            }
-            let mid = n / 2;
-            let (_, m, _) = vals.select_nth_unstable(mid);
-            *out = *m;
-        }
+        let plate = RgbImage::from_raw(w, h, median::median_bytes(&raw))
+            .expect("the median has the samples' size");
         // Noise estimate: median L1 distance to the plate over a sparse pixel grid of all samples.
         let mut dists: Vec<u32> = Vec::new();
         let step = ((w as usize * h as usize) / 20_000).max(1);
         for s in samples {
-            for (i, (p, q)) in s.pixels().zip(plate.pixels()).enumerate() {
-                if i % step == 0 {
-                    dists.push(l1(p.0, q.0));
-                }
+            for (p, q) in s.pixels().zip(plate.pixels()).step_by(step) {
+                dists.push(l1(p.0, q.0));
             }
         }
         let mid = dists.len() / 2;
