@@ -168,30 +168,41 @@ pub struct Pyramid<'a> {
     coarse: Vec<image::RgbImage>,
 }
 
-/// Halves an RGB buffer `w × h` by averaging 2×2 blocks (odd edges dropped).
+/// Halves an RGB buffer `w × h` by averaging 2×2 blocks (odd edges dropped). Output rows are
+/// made in parallel.
 fn halve(raw: &[u8], w: usize, h: usize) -> image::RgbImage {
+    use rayon::prelude::*;
     let (w2, h2) = ((w / 2).max(1), (h / 2).max(1));
     let mut out = vec![0u8; w2 * h2 * 3];
     if w >= 2 && h >= 2 {
-        // Each row pair summed down first (byte by byte: a loop the compiler runs wide), then
-        // across; integer sums, so the order does not matter.
-        let mut down = vec![0u16; w * 3];
-        for y in 0..h2 {
-            let r0 = &raw[(2 * y) * w * 3..(2 * y + 1) * w * 3];
-            let r1 = &raw[(2 * y + 1) * w * 3..(2 * y + 2) * w * 3];
-            for ((d, &a), &b) in down.iter_mut().zip(r0).zip(r1) {
-                *d = a as u16 + b as u16;
-            }
-            let o = &mut out[y * w2 * 3..(y + 1) * w2 * 3];
-            // Two pixels of the summed row to one output pixel (6 sums to 3).
-            for (px, s) in o.chunks_exact_mut(3).zip(down.chunks_exact(6)) {
-                for k in 0..3 {
-                    px[k] = ((s[k] + s[k + 3] + 2) / 4) as u8;
-                }
-            }
-        }
+        // Scratch rows: the row pair summed down, and each of those sums plus the next pixel's.
+        let scratch = || (vec![0u16; w * 3], vec![0u16; w * 3]);
+        out.par_chunks_mut(w2 * 3)
+            .enumerate()
+            .with_min_len(16)
+            .for_each_init(scratch, |(down, across), (y, o)| {
+                halve_row(&raw[2 * y * w * 3..(2 * y + 2) * w * 3], down, across, o);
+            });
     }
     image::RgbImage::from_raw(w2 as u32, h2 as u32, out).expect("buffer sized to the image")
+}
+
+/// One output row of [`halve`] from the two input rows `rows`, through `down` and `across`
+/// (scratch, as long as an input row). Summed down first, then across, each a plain loop over
+/// bytes that the compiler runs wide; integer sums, so the order does not matter.
+fn halve_row(rows: &[u8], down: &mut [u16], across: &mut [u16], o: &mut [u8]) {
+    let (r0, r1) = rows.split_at(rows.len() / 2);
+    for ((d, &a), &b) in down.iter_mut().zip(r0).zip(r1) {
+        *d = a as u16 + b as u16;
+    }
+    // (The last pixel's entry is left as it is: no pair starts there.)
+    for (a, (&p, &q)) in across.iter_mut().zip(down.iter().zip(&down[3..])) {
+        *a = (p + q + 2) / 4;
+    }
+    // Every other pixel of `across` is an output pixel.
+    for (px, a) in o.chunks_exact_mut(3).zip(across.chunks_exact(6)) {
+        px.copy_from_slice(&[a[0] as u8, a[1] as u8, a[2] as u8]);
+    }
 }
 
 /// Every pyramid level of `img` as owned images, level 0 (a copy of `img`) first.
@@ -294,6 +305,33 @@ impl<'a> Level<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn halve_is_the_rounded_mean_of_each_block() {
+        for (w, h) in [(2, 2), (3, 3), (4, 2), (5, 7), (8, 6), (33, 40)] {
+            let raw: Vec<u8> = (0..w * h * 3)
+                .map(|i| ((i * 97 + i / 7) % 256) as u8)
+                .collect();
+            let out = halve(&raw, w, h);
+            assert_eq!(
+                (out.width() as usize, out.height() as usize),
+                (w / 2, h / 2)
+            );
+            for y in 0..h / 2 {
+                for x in 0..w / 2 {
+                    for k in 0..3 {
+                        let at = |xx: usize, yy: usize| raw[(yy * w + xx) * 3 + k] as u16;
+                        let sum = at(2 * x, 2 * y)
+                            + at(2 * x + 1, 2 * y)
+                            + at(2 * x, 2 * y + 1)
+                            + at(2 * x + 1, 2 * y + 1);
+                        let got = out.get_pixel(x as u32, y as u32).0[k];
+                        assert_eq!(got, ((sum + 2) / 4) as u8, "{w}x{h} at ({x}, {y}) {k}");
+                    }
+                }
+            }
+        }
+    }
 
     fn ramp() -> RgbImage {
         // R = 10 x, G = 5 y, B = x + y: a linear image, so bilinear reads are exact.
