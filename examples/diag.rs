@@ -2,6 +2,9 @@
 //! errors at each tracker stage for the frames where something goes wrong.
 //!
 //!     cargo run --release --example diag -- SCENARIO [--frames N] [--from F] [--to F] [--mp4]
+#[path = "common/probe.rs"]
+mod probe;
+
 use mocap2d::background::Background;
 use mocap2d::synth::{render, Scenario, SynthOptions};
 use mocap2d::track::Tracker;
@@ -95,38 +98,7 @@ fn main() -> anyhow::Result<()> {
                 // Picture: the frame around the bone, 4x, samples at the truth (inliers green,
                 // outliers red, weightless grey).
                 let pr = t.probe_bone(fr, j, gp(par), gp(j));
-                let (cx, cy) = ((gp(par).x + gp(j).x) / 2.0, (gp(par).y + gp(j).y) / 2.0);
-                let (x0, y0, sc, half) = (cx - 40.0, cy - 40.0, 6.0f32, 80u32);
-                let mut img = image::RgbImage::new(half * 6, half * 6);
-                for (x, y, px) in img.enumerate_pixels_mut() {
-                    let (fx, fy) = ((x0 + x as f32 / sc) as u32, (y0 + y as f32 / sc) as u32);
-                    if fx < fr.width() && fy < fr.height() {
-                        *px = *fr.get_pixel(fx, fy);
-                    }
-                }
-                for (x, y, e, w) in pr {
-                    let (ix, iy) = (((x - x0 + 0.5) * sc) as i32, ((y - y0 + 0.5) * sc) as i32);
-                    let col = if w <= 0.0 {
-                        image::Rgb([128, 128, 128])
-                    } else if e < 2.5 {
-                        image::Rgb([0, 255, 0])
-                    } else {
-                        image::Rgb([255, 0, 0])
-                    };
-                    for dy in -1..=1 {
-                        for dx in -1..=1 {
-                            let (a, b) = (ix + dx, iy + dy);
-                            if a >= 0
-                                && b >= 0
-                                && (a as u32) < img.width()
-                                && (b as u32) < img.height()
-                            {
-                                img.put_pixel(a as u32, b as u32, col);
-                            }
-                        }
-                    }
-                }
-                img.save("/tmp/probe.png").unwrap();
+                probe::save_probe(fr, gp(par), gp(j), &pr, "/tmp/probe.png");
                 println!(
                     "   estimate {:?}",
                     t.fit_bone(fr, j, est[par].pos, est[j].pos)

@@ -9,6 +9,9 @@
 //! labels; `--probe` saves /tmp/probe.png, the bone's samples at the labels (or the estimate)
 //! on that frame: green fit, red do not, grey carry no weight. The clean plate goes to
 //! /tmp/plate.png.
+#[path = "common/probe.rs"]
+mod probe;
+
 use mocap2d::app::{background_for, TrackOptions};
 use mocap2d::decode;
 use mocap2d::track::Tracker;
@@ -89,38 +92,7 @@ fn main() -> anyhow::Result<()> {
                 };
                 println!("probe {pj} at {idx}: {:?}", t.fit_bone(&frame, j, gp, gc));
                 let pr = t.probe_bone(&frame, j, gp, gc);
-                let (cx, cy) = ((gp.x + gc.x) / 2.0, (gp.y + gc.y) / 2.0);
-                let (x0, y0, sc, half) = (cx - 40.0, cy - 40.0, 6.0f32, 80u32);
-                let mut img = image::RgbImage::new(half * 6, half * 6);
-                for (x, y, px) in img.enumerate_pixels_mut() {
-                    let (fx, fy) = ((x0 + x as f32 / sc) as u32, (y0 + y as f32 / sc) as u32);
-                    if fx < frame.width() && fy < frame.height() {
-                        *px = *frame.get_pixel(fx, fy);
-                    }
-                }
-                for (x, y, e, w) in pr {
-                    let (ix, iy) = (((x - x0 + 0.5) * sc) as i32, ((y - y0 + 0.5) * sc) as i32);
-                    let col = if w <= 0.0 {
-                        image::Rgb([128, 128, 128])
-                    } else if e < 2.5 {
-                        image::Rgb([0, 255, 0])
-                    } else {
-                        image::Rgb([255, 0, 0])
-                    };
-                    for dy in -1..=1 {
-                        for dx in -1..=1 {
-                            let (a, b) = (ix + dx, iy + dy);
-                            if a >= 0
-                                && b >= 0
-                                && (a as u32) < img.width()
-                                && (b as u32) < img.height()
-                            {
-                                img.put_pixel(a as u32, b as u32, col);
-                            }
-                        }
-                    }
-                }
-                img.save("/tmp/probe.png").unwrap();
+                probe::save_probe(&frame, gp, gc, &pr, "/tmp/probe.png");
             }
         }
         let mut lines = Vec::new();
