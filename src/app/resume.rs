@@ -3,7 +3,7 @@
 //! the previous `tracks.csv` goes to `history/`.
 
 use super::segmented::Session;
-use super::{median_background, TrackSummary, BACKGROUND_SAMPLES};
+use super::{median_background, TrackSummary};
 use crate::background::Background;
 use crate::decode;
 use crate::error::{Error, Result};
@@ -249,11 +249,11 @@ fn background_of(
             m.width,
             m.height,
         )?)
-    } else if m.background.ends_with(",rest") {
-        Some(median_background(clip, Some(m.fps), Some(seeds))?.0)
     } else {
-        let samples = decode::sample_frames(clip, BACKGROUND_SAMPLES)?;
-        Some(Background::fit(&samples)?)
+        // `median:N,rest` (cleared of the bodies resting on the seed frame) or the plain
+        // `median:N` of runs made before that existed.
+        let rest = m.background.ends_with(",rest").then_some(seeds);
+        Some(median_background(clip, Some(m.fps), rest)?.0)
     };
     let threshold = bg.as_ref().map_or(0, |b| b.threshold);
     if threshold != m.background_threshold {
