@@ -219,9 +219,10 @@ fn the_report_flags_where_the_tracks_are_far_off() {
 fn corrections_of_flagged_segments_lift_accuracy() {
     let s = Synth::new(Scenario::Long, 320, 180, Some(240));
     let (before, after) = correct_flagged(&s, 40);
-    // Measured: 83.6 % -> 96.0 % (all six segments flagged; their seven files corrected).
-    // Without filling joints hidden in every blended pass between the keyframes: 95.4 %.
-    assert!(after >= 0.957, "PCK@5 {before} -> {after}");
+    // Measured: 83.6 % -> 96.5 % (all six segments flagged; their seven files corrected).
+    // Without the seed appearance for bones hidden on a keyframe: 96.0 %; without filling
+    // joints hidden in every blended pass between the keyframes as well: 95.4 %.
+    assert!(after >= 0.962, "PCK@5 {before} -> {after}");
     assert!(after > before);
 }
 
@@ -231,10 +232,11 @@ fn corrections_of_flagged_segments_lift_accuracy() {
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);
-    // Measured: 87.7 % -> 94.7 % (every segment flagged, all seven files corrected). The
+    // Measured: 87.7 % -> 95.6 % (every segment flagged, all seven files corrected). The
     // issue's target is 98 %: not reached (see the README, "Segments, corrections and resume").
-    // Without filling joints hidden in every blended pass between the keyframes: 94.2 %.
-    assert!(after >= 0.945, "PCK@5 {before} -> {after}");
+    // Without the seed appearance for bones hidden on a keyframe: 94.7 %; without filling
+    // joints hidden in every blended pass between the keyframes as well: 94.2 %.
+    assert!(after >= 0.953, "PCK@5 {before} -> {after}");
 }
 
 /// Runs the binary with `args`, waiting for it.

@@ -23,6 +23,12 @@ pub(super) struct JointState {
     pub last: JointEstimate,
 }
 
+/// See [`Tracker::adopt_hidden_from`]. Measured on `long` with ground-truth corrections of
+/// every segment file (640×360 in segments of 150, seeds 1–3; 320×180, 240 frames in segments
+/// of 40, seeds 1–2), mean PCK@5: 94.1 % without adopting, 95.5 % at 0.05, 95.8 % at 0.1,
+/// 95.9 % at 0.2 and 0.3, 95.8 % at 0.45.
+pub const HIDDEN_AT_KEYFRAME: f32 = 0.2;
+
 /// Tracks all joints of a seed file frame by frame.
 pub struct Tracker {
     pub(super) params: TrackParams,
@@ -449,6 +455,38 @@ impl Tracker {
         let pyr = Pyramid::new(frame, self.model.levels);
         let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
         Some(s.fit(&views[self.params.judge_level.min(views.len() - 1)], p, c))
+    }
+
+    /// For a tracker built on a keyframe other than the seed frame (a correction): the bones
+    /// that `seed` (built on the seed frame) does not find at this tracker's seed positions on
+    /// `frame` (this keyframe), laid either way round, were hidden there, so what this tracker
+    /// sampled for them is whatever covered them. They take `seed`'s appearance instead.
+    /// Returns the joints whose bones did. A bone counts as found when at least
+    /// [`HIDDEN_AT_KEYFRAME`] of its samples fit, overall or at its child end.
+    pub fn adopt_hidden_from(&mut self, seed: &Tracker, frame: &RgbImage) -> Vec<usize> {
+        let pyr = Pyramid::new(frame, seed.model.levels);
+        let views = Self::views(seed.background.as_ref(), &seed.plate, &pyr, frame);
+        let v = &views[seed.params.judge_level.min(views.len() - 1)];
+        let mut adopted = Vec::new();
+        for (j, par) in self.parents.clone().into_iter().enumerate() {
+            let (Some(par), Some(si)) = (par, self.model.strip_of[j]) else {
+                continue;
+            };
+            if seed.model.strip_of[j] != Some(si) {
+                continue;
+            }
+            let s = &seed.model.strips[si];
+            let (p, c) = (self.seed_pos[par], self.seed_pos[j]);
+            let found = [false, true].into_iter().any(|m| {
+                let f = s.fit_as(v, p, c, m);
+                f.inliers.max(f.child_end) >= HIDDEN_AT_KEYFRAME
+            });
+            if !found {
+                self.model.strips[si] = s.clone();
+                adopted.push(j);
+            }
+        }
+        adopted
     }
 
     /// Diagnostics: [`Strip::probe`] (full resolution) of the bone ending at joint `child`.
