@@ -2,10 +2,11 @@
 //! "Occlusion": the motion model keeps it on its path), and how it is found again.
 
 use super::motion::Prediction;
-use super::search::{grid_min_bounded, Window};
-use super::strip::View;
+use super::search::{grid_min_bounded, grid_min_bounded_serial, Window};
+use super::strip::{Fit, View};
 use super::tracker::Tracker;
 use crate::geom::{Point, Vector};
+use rayon::prelude::*;
 use std::f32::consts::PI;
 
 /// Where the middle joint of a two-bone chain goes: at distance `l1` (px) from `a` and `l2`
@@ -159,29 +160,39 @@ impl Tracker {
         let step = |l: f32| {
             (p.search_step_px * v.img.scale / l).clamp(2f32.to_radians(), 10f32.to_radians())
         };
-        let mut found: Option<(Point, Point, bool, f32)> = None;
-        for (l1, l2) in l1s.iter().flat_map(|&a| l2s.iter().map(move |&b| (a, b))) {
-            let w = Window {
-                centre,
-                half: [PI, PI],
-                step: [step(l1), step(l2)],
-            };
-            let at = |q: [f32; 2]| {
-                let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;
-                (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
-            };
-            for m in [s.mirrored, !s.mirrored] {
-                let (best, _) = grid_min_bounded(&w, |q, limit| {
+        // Every pair of lengths, laid as it was and mirrored: independent searches, run side by
+        // side (each on one thread), then judged in this order.
+        let tries: Vec<(f32, f32, bool)> = l1s
+            .iter()
+            .flat_map(|&a| l2s.iter().map(move |&b| (a, b)))
+            .flat_map(|(a, b)| [(a, b, s.mirrored), (a, b, !s.mirrored)])
+            .collect();
+        let placed: Vec<(Point, Point, bool, Fit)> = tries
+            .par_iter()
+            .map(|&(l1, l2, m)| {
+                let w = Window {
+                    centre,
+                    half: [PI, PI],
+                    step: [step(l1), step(l2)],
+                };
+                let at = |q: [f32; 2]| {
+                    let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;
+                    (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
+                };
+                let (best, _) = grid_min_bounded_serial(&w, |q, limit| {
                     let (b, c) = at(q);
                     s.coarse_cost_below(v, b, c, m, limit)
                 });
                 let (b, c) = at(best);
-                let fit = s.fit_as(judge, b, c, m);
-                if s.found(&fit, p.reacquire_share, true)
-                    && found.is_none_or(|f| fit.child_end > f.3 + 0.1)
-                {
-                    found = Some((b, c, m, fit.child_end));
-                }
+                (b, c, m, s.fit_as(judge, b, c, m))
+            })
+            .collect();
+        let mut found: Option<(Point, Point, bool, f32)> = None;
+        for (b, c, m, fit) in placed {
+            if s.found(&fit, p.reacquire_share, true)
+                && found.is_none_or(|f| fit.child_end > f.3 + 0.1)
+            {
+                found = Some((b, c, m, fit.child_end));
             }
         }
         found.map(|(b, c, m, _)| (b, c, m))
