@@ -237,7 +237,16 @@ impl Tracker {
     }
 
     /// Tracks one frame (the frame after the previous call). Returns every joint's estimate.
+    ///
+    /// The step runs on a thread of rayon's pool (the caller waits): its many small parallel
+    /// sections then split work among the pool's threads directly, instead of each handing its
+    /// work over from outside the pool and sleeping until it is done.
     pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
+        rayon::scope(|_| self.step_in_pool(frame))
+    }
+
+    /// [`Tracker::step`], on whatever thread calls it.
+    fn step_in_pool(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
         let mut clock = std::time::Instant::now();
         let mut lap = |t: &mut f64| {
             let now = std::time::Instant::now();
