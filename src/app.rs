@@ -235,7 +235,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         }
         Some(d) => crate::seed::dlc::seeds_from_dlc(&opts.seeds, d)?,
     };
-    let source: Box<dyn FrameSource> = decode::open(&opts.clip, opts.fps)?;
+    let source: Box<dyn FrameSource> = decode::open_beside_tracking(&opts.clip, opts.fps)?;
     let info = source.info().clone();
     let min = crate::seed::MIN_BOX_PX;
     if info.width < min || info.height < min {

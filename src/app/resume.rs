@@ -77,7 +77,7 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
     session.manifest.complete = false;
     session.manifest.tracked_segments = first;
     session.manifest.write(run_dir)?;
-    let source = decode::open(&clip, Some(session.manifest.fps))?;
+    let source = decode::open_beside_tracking(&clip, Some(session.manifest.fps))?;
     progress.start("track", Some(session.manifest.frames).filter(|&n| n > 0));
     let rx = decode::spawn_reader(source, 8);
     let result = session.run(rx.into_iter(), first, progress);

@@ -78,6 +78,17 @@ impl FfmpegSource {
     /// Errors: [`Error::Clip`] if FFmpeg cannot open the file, it has no video stream, or FFmpeg
     /// has no decoder for its codec.
     pub fn open(path: &Path, fps: Option<f64>) -> Result<Self> {
+        Self::open_with_threads(path, fps, |_, _| super::decoder_threads())
+    }
+
+    /// [`FfmpegSource::open`] with the decoder's thread count given by `threads(width, height)`
+    /// of the stream's frames (0: one per core, FFmpeg's choice). Decoded frames do not depend
+    /// on it.
+    pub fn open_with_threads(
+        path: &Path,
+        fps: Option<f64>,
+        threads: impl Fn(u32, u32) -> usize,
+    ) -> Result<Self> {
         init();
         let clip_err = |msg: String| Error::Clip {
             path: path.to_owned(),
@@ -106,10 +117,16 @@ impl FfmpegSource {
         let time_base = stream.time_base();
         let mut context = ff::codec::context::Context::from_parameters(stream.parameters())
             .map_err(|e| clip_err(format!("cannot read the video stream's parameters ({e})")))?;
+        // The frame size the stream states, before the decoder opens (it may correct it).
+        // SAFETY: `context` owns a valid AVCodecContext, filled from the stream's parameters.
+        let (stated_w, stated_h) = unsafe {
+            let c = context.as_ptr();
+            ((*c).width.max(0) as u32, (*c).height.max(0) as u32)
+        };
         // Decoders are single-threaded unless asked; count 0 lets FFmpeg pick one per core.
         context.set_threading(threading::Config {
             kind: threading::Type::Frame,
-            count: super::decoder_threads(),
+            count: threads(stated_w, stated_h),
             ..Default::default()
         });
         let mut decoder = context.decoder();

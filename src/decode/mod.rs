@@ -219,13 +219,52 @@ pub fn open(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
     open_video(path, fps)
 }
 
+/// [`open`] for a source read on its own thread beside the tracker ([`spawn_reader`]): a video's
+/// decoder gets one thread for frames up to [`BESIDE_ONE_THREAD_PX`] (see there), FFmpeg's
+/// choice above. The frames are the same.
+pub fn open_beside_tracking(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
+    check_fps(fps)?;
+    let meta = clip_metadata(path)?;
+    if meta.is_dir() {
+        let source = ImageFolderSource::open(path, fps.unwrap_or(DEFAULT_IMAGE_FPS))?;
+        return Ok(Box::new(source));
+    }
+    open_video_beside(path, fps)
+}
+
+/// Frames of at most this many pixels (1280×720) are decoded on one thread beside tracking
+/// ([`open_beside_tracking`]): about 1 ms a frame at 720p, a fifth of what tracking takes, so
+/// the decoder fills the tracker's idle moments instead of FFmpeg's frame threads (one per core
+/// and one more) taking cores from the tracker's parallel sections. Larger frames keep FFmpeg's
+/// choice, lest decoding fall behind.
+pub const BESIDE_ONE_THREAD_PX: u64 = 1280 * 720;
+
 #[cfg(feature = "ffmpeg")]
 fn open_video(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
     Ok(Box::new(FfmpegSource::open(path, fps)?))
 }
 
+#[cfg(feature = "ffmpeg")]
+fn open_video_beside(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
+    let threads = |w: u32, h: u32| {
+        if u64::from(w) * u64::from(h) <= BESIDE_ONE_THREAD_PX {
+            1
+        } else {
+            decoder_threads()
+        }
+    };
+    Ok(Box::new(FfmpegSource::open_with_threads(
+        path, fps, threads,
+    )?))
+}
+
 #[cfg(not(feature = "ffmpeg"))]
 fn open_video(path: &Path, _fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
+    Err(no_ffmpeg(path))
+}
+
+#[cfg(not(feature = "ffmpeg"))]
+fn open_video_beside(path: &Path, _fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
     Err(no_ffmpeg(path))
 }
 
