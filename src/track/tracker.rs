@@ -224,6 +224,16 @@ impl Tracker {
         frame: &RgbImage,
     ) -> Vec<View<'a>> {
         let gain = background.map_or(1.0, |b| b.gain(frame));
+        Self::views_at_gain(background, plate, pyr, gain)
+    }
+
+    /// [`Tracker::views`] with the frame's brightness gain already measured.
+    fn views_at_gain<'a>(
+        background: Option<&Background>,
+        plate: &'a [RgbImage],
+        pyr: &'a Pyramid,
+        gain: f32,
+    ) -> Vec<View<'a>> {
         let noise = background.map_or(1.0, |b| b.noise_sigma());
         let bg_inv = 1.0 / (3.0 * (2.0 * noise).powi(2));
         (0..pyr.levels())
@@ -256,10 +266,15 @@ impl Tracker {
         let mut tm = self.timings;
         tm.frames += 1;
         let pred = self.predict();
-        let pyr = Pyramid::new(frame, self.model.levels);
+        // The pyramid and the brightness gain, side by side.
+        let background = self.background.as_ref();
+        let (pyr, gain) = rayon::join(
+            || Pyramid::new(frame, self.model.levels),
+            || background.map_or(1.0, |b| b.gain(frame)),
+        );
         // The plate's levels are lent to the views while the strips learn.
         let plate = std::mem::take(&mut self.plate);
-        let views = Self::views(self.background.as_ref(), &plate, &pyr, frame);
+        let views = Self::views_at_gain(self.background.as_ref(), &plate, &pyr, gain);
         let judge = views[self.params.judge_level.min(views.len() - 1)];
         lap(&mut tm.pyramid);
         let mut x = self.search(&views, &pred);
