@@ -38,20 +38,26 @@ impl Background {
         let raw: Vec<&[u8]> = samples.iter().map(|s| s.as_raw().as_slice()).collect();
         let plate = RgbImage::from_raw(w, h, median::median_bytes(&raw))
             .expect("the median has the samples' size");
-        // Noise estimate: median L1 distance to the plate over a sparse pixel grid of all samples.
-        let mut dists: Vec<u32> = Vec::new();
+        // Noise estimate: median L1 distance to the plate over a sparse pixel grid of all samples
+        // (the distance at index len / 2 of their sorted list), counted by value: a distance is
+        // at most 3 × 255.
         let step = ((w as usize * h as usize) / 20_000).max(1);
+        let mut counts = vec![0u64; 3 * 255 + 1];
+        let px = |raw: &[u8], i: usize| [raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]];
         for s in samples {
-            for (p, q) in s.pixels().zip(plate.pixels()).step_by(step) {
-                dists.push(l1(p.0, q.0));
+            for i in (0..w as usize * h as usize).step_by(step) {
+                counts[l1(px(s.as_raw(), i), px(plate.as_raw(), i)) as usize] += 1;
             }
         }
-        let mid = dists.len() / 2;
-        let noise = if dists.is_empty() {
-            0
-        } else {
-            *dists.select_nth_unstable(mid).1
-        };
+        let mid = counts.iter().sum::<u64>() / 2;
+        let mut below = 0;
+        let noise = counts
+            .iter()
+            .position(|&c| {
+                below += c;
+                below > mid
+            })
+            .unwrap_or(0) as u32;
         Ok(Background {
             plate,
             threshold: (4 * noise).max(MIN_THRESHOLD),
