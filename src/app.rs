@@ -129,14 +129,19 @@ pub fn median_background(
     fps: Option<f64>,
     seeds: Option<&Seeds>,
 ) -> Result<(Background, String)> {
-    let samples = decode::sample_frames(clip, BACKGROUND_SAMPLES)?;
+    // The seed frame comes with the sample when one sequential decode passes it.
+    let (samples, at_seed) =
+        decode::sample_frames_and(clip, BACKGROUND_SAMPLES, seeds.map(|s| s.frame))?;
     if samples.is_empty() {
         return Err(no_frames(clip));
     }
     let mut bg = Background::fit(&samples)?;
     let mut desc = format!("median:{}", samples.len());
     if let Some(seeds) = seeds {
-        let seed_frame = guide::read_frame(clip, fps, seeds.frame)?;
+        let seed_frame = match at_seed {
+            Some(f) => f,
+            None => guide::read_frame(clip, fps, seeds.frame)?,
+        };
         bg.clear_resting_subject(&samples, &seed_frame, &seed_bodies(seeds));
         desc += ",rest";
     }

@@ -330,7 +330,14 @@ impl FfmpegSource {
     /// doubling `stride` (and dropping every other kept frame) whenever `2n` are held, so memory
     /// stays bounded whatever the clip's length. Kept frames are the decoder's own (reference
     /// counted, not copied); only the `n` chosen at the end are converted to RGB.
-    fn sample_sequentially(&mut self, n: usize) -> Result<Vec<RgbImage>> {
+    ///
+    /// Frame `also`, when given and reached, is converted too and returned beside them.
+    fn sample_sequentially(
+        &mut self,
+        n: usize,
+        also: Option<u64>,
+    ) -> Result<(Vec<RgbImage>, Option<RgbImage>)> {
+        let mut extra = None;
         let mut kept: Vec<(u64, ff::frame::Video)> = Vec::new();
         let mut stride = 1u64;
         let mut index = 0u64;
@@ -341,6 +348,10 @@ impl FfmpegSource {
             Err(_) if !kept.is_empty() => false,
             Err(e) => return Err(e),
         } {
+            if also == Some(index) {
+                // A frame that will not convert is left to the caller's own decode.
+                extra = self.to_rgb.convert(&self.decoded).ok();
+            }
             if index.is_multiple_of(stride) {
                 // Take the frame; the next `receive_frame` fills a fresh one.
                 let frame = std::mem::replace(&mut self.decoded, ff::frame::Video::empty());
@@ -362,7 +373,7 @@ impl FfmpegSource {
                 msg,
             })?);
         }
-        Ok(frames)
+        Ok((frames, extra))
     }
 }
 
@@ -434,21 +445,27 @@ impl FrameSource for FfmpegSource {
 /// spaced timestamps if at least `n / 2` are distinct, else one sequential decode (see
 /// [`super::sample_frames`]). Which way is decided by demuxing alone, so a clip with few
 /// keyframes is decoded once, not once per seek and then again.
-pub(super) fn sample(path: &Path, n: usize) -> Result<Vec<RgbImage>> {
+/// With `also`, that frame too when the sequential decode reaches it (see
+/// [`super::sample_frames_and`]).
+pub(super) fn sample(
+    path: &Path,
+    n: usize,
+    also: Option<u64>,
+) -> Result<(Vec<RgbImage>, Option<RgbImage>)> {
     if n == 0 {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), None));
     }
     let mut source = FfmpegSource::open(path, None)?;
     let targets = source.keyframe_targets(n);
     if targets.len() * 2 >= n {
         let sampled = source.decode_at(&targets);
         if sampled.len() * 2 >= n {
-            return Ok(sampled);
+            return Ok((sampled, None));
         }
     }
     drop(source);
     // A fresh decoder from the start: the same frames, in the same order, as `track` gets.
-    FfmpegSource::open(path, None)?.sample_sequentially(n)
+    FfmpegSource::open(path, None)?.sample_sequentially(n, also)
 }
 
 /// The stream's average frame rate, else its base rate, else 30 frames per second.
@@ -476,7 +493,7 @@ fn duration_seconds(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::decode::{open, sample_frames};
+    use crate::decode::{open, sample_frames, sample_frames_and};
 
     /// Writes `frames` with any FFmpeg encoder and pixel format (unlike `VideoWriter`), at 25 fps
     /// with a keyframe every `gop` frames. The container comes from `path`'s extension.
@@ -654,6 +671,18 @@ mod tests {
         // More than the clip has: all of it.
         assert_eq!(sample_frames(&path, 100).unwrap().len(), 30);
         assert!(sample_frames(&path, 0).unwrap().is_empty());
+        // Any frame the decode passes comes with the sample, as a decode from the start gives it.
+        let all = crate::decode::read_all(&path, None).unwrap();
+        for k in [0, 7, 29] {
+            let (sample, extra) = sample_frames_and(&path, 10, Some(k)).unwrap();
+            assert!(sample == sample_frames(&path, 10).unwrap());
+            assert!(extra.as_ref() == Some(&all[k as usize]), "frame {k}");
+        }
+        assert!(sample_frames_and(&path, 10, Some(30)).unwrap().1.is_none());
+        // Keyframes sampled: the caller reads the frame itself.
+        let gop5 = dir.path().join("gop5.mp4");
+        write_video(&gop5, &numbered(60), "mpeg4", Pixel::YUV420P, 5);
+        assert!(sample_frames_and(&gop5, 8, Some(0)).unwrap().1.is_none());
     }
 
     #[test]

@@ -289,16 +289,29 @@ fn no_ffmpeg(path: &Path) -> Error {
 /// converted to RGB). Either way the same clip gives the same frames. Image folders read the `n`
 /// chosen files directly. Frames come back in clip order.
 pub fn sample_frames(path: &Path, n: usize) -> Result<Vec<RgbImage>> {
+    Ok(sample_frames_and(path, n, None)?.0)
+}
+
+/// [`sample_frames`], and frame `also` (counted from 0) when the sample is taken by one
+/// sequential decode that reaches it: the frame a fresh decode would give, so that the caller
+/// need not decode the clip up to it again. `None` otherwise (keyframes sampled, an image
+/// folder, a clip that ends or breaks before it): read it yourself.
+pub fn sample_frames_and(
+    path: &Path,
+    n: usize,
+    also: Option<u64>,
+) -> Result<(Vec<RgbImage>, Option<RgbImage>)> {
     let meta = clip_metadata(path)?;
     if meta.is_dir() {
-        return images::sample(path, n);
+        return Ok((images::sample(path, n)?, None));
     }
     #[cfg(feature = "ffmpeg")]
     {
-        ffmpeg::sample(path, n)
+        ffmpeg::sample(path, n, also)
     }
     #[cfg(not(feature = "ffmpeg"))]
     {
+        let _ = also;
         Err(no_ffmpeg(path))
     }
 }
