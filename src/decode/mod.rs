@@ -210,26 +210,29 @@ pub fn read_all(path: &Path, fps: Option<f64>) -> Result<Vec<RgbImage>> {
 /// Errors: [`Error::Clip`] for a missing path, a file FFmpeg cannot decode, a folder without
 /// frames or with frames of different sizes; [`Error::Usage`] for a non-positive `fps`.
 pub fn open(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
-    check_fps(fps)?;
-    let meta = clip_metadata(path)?;
-    if meta.is_dir() {
-        let source = ImageFolderSource::open(path, fps.unwrap_or(DEFAULT_IMAGE_FPS))?;
-        return Ok(Box::new(source));
-    }
-    open_video(path, fps)
+    open_with(path, fps, open_video)
 }
 
 /// [`open`] for a source read on its own thread beside the tracker ([`spawn_reader`]): a video's
 /// decoder gets one thread for frames up to [`BESIDE_ONE_THREAD_PX`] (see there), FFmpeg's
 /// choice above. The frames are the same.
 pub fn open_beside_tracking(path: &Path, fps: Option<f64>) -> Result<Box<dyn FrameSource>> {
+    open_with(path, fps, open_video_beside)
+}
+
+/// [`open`] with `video` opening a video file.
+fn open_with(
+    path: &Path,
+    fps: Option<f64>,
+    video: fn(&Path, Option<f64>) -> Result<Box<dyn FrameSource>>,
+) -> Result<Box<dyn FrameSource>> {
     check_fps(fps)?;
     let meta = clip_metadata(path)?;
     if meta.is_dir() {
         let source = ImageFolderSource::open(path, fps.unwrap_or(DEFAULT_IMAGE_FPS))?;
         return Ok(Box::new(source));
     }
-    open_video_beside(path, fps)
+    video(path, fps)
 }
 
 /// Frames of at most this many pixels (1280×720) are decoded on one thread beside tracking
