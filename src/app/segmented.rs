@@ -451,22 +451,22 @@ impl Session {
             for (row, b) in out[1..].iter_mut().zip(super::blend::blend(&passes)) {
                 row.1 = b;
             }
-            if keyframe {
-                // A joint hidden in every pass is filled again between where the blend saw it
-                // and the two keyframes: a pass that lost it up to the segment's end coasted.
-                let mut filler = tracker.gap_filler_over(out.len() + 1);
-                let mut filled = Vec::with_capacity(out.len() + 1);
-                for (idx, row) in &out {
-                    filled.extend(filler.push(*idx, row.clone()));
-                }
-                if boundary.is_some() {
-                    filled.extend(filler.push(next, end.row.clone()));
-                }
-                filled.extend(filler.finish());
-                for (row, (_, f)) in out.iter_mut().zip(filled) {
-                    row.1 = f;
-                }
-            }
+        }
+        // A joint hidden for long is filled again over the whole segment, between where it was
+        // seen on either side (the pass's filler hands frames out after `fill_gaps_max`, and a
+        // pass that lost a joint up to a keyframe coasted), up to the next keyframe if any.
+        let end_row = match (&end, &boundary) {
+            (Some(e), Some(_)) => Some((next, e.row.clone())),
+            _ => None,
+        };
+        let mut filler = tracker.gap_filler_over(out.len() + 1);
+        let mut filled = Vec::with_capacity(out.len() + 1);
+        for (idx, row) in out.iter().cloned().chain(end_row) {
+            filled.extend(filler.push(idx, row));
+        }
+        filled.extend(filler.finish());
+        for (row, (_, f)) in out.iter_mut().zip(filled) {
+            row.1 = f;
         }
         // Rows from several passes, or a pass and its keyframe, may count turns differently.
         for i in 1..out.len() {

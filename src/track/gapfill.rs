@@ -2,7 +2,8 @@
 //! (it rides on its parent); once the joint is seen again, its bone's direction and length on
 //! both sides of the gap are known, and the hidden frames are filled by interpolating them
 //! between the two (a batch tool can afford to wait). Frames are held back while any joint is
-//! hidden, at most `max_gap` frames; a gap still open then is left as tracked.
+//! hidden, at most `max_gap` frames; when they are handed out then (or the input ends), each
+//! joint's gaps that closed within them are filled, and a gap still open is left as tracked.
 //!
 //! Interpolation is relative to the parent (angle unwrapped, length linear), so a hidden forearm
 //! follows its upper arm; roots are interpolated in position. Statuses and scores are kept: the
@@ -44,16 +45,16 @@ impl GapFiller {
         let all_seen = est.iter().all(|e| seen(e.status));
         self.pending.push_back((idx, est));
         if all_seen || self.pending.len() > self.max_gap {
-            if all_seen {
-                self.fill();
-            }
+            self.fill();
             return self.drain();
         }
         Vec::new()
     }
 
-    /// Hands out everything still held (gaps open at the end stay as tracked).
+    /// Hands out everything still held, gaps closed within it filled (gaps open at the end stay
+    /// as tracked).
     pub fn finish(&mut self) -> Vec<(u64, Vec<JointEstimate>)> {
+        self.fill();
         self.drain()
     }
 
@@ -65,11 +66,12 @@ impl GapFiller {
         out
     }
 
-    /// Fills every closed gap in `pending` (the newest frame has every joint seen).
+    /// Fills every gap in `pending` whose joint is seen again within it. When the newest frame
+    /// has every joint seen, that is every gap; when frames are handed out because the limit
+    /// is reached or the input ends, a joint still hidden on the newest frame keeps its last
+    /// gap as tracked, while the others' gaps are filled.
+    /// A gap at the very start (nothing handed out yet) has no left side and stays as tracked.
     fn fill(&mut self) {
-        let Some(left) = self.last.clone() else {
-            return;
-        };
         let n = self.pending.len();
         for &j in &self.order.clone() {
             let mut k = 0;
@@ -78,15 +80,21 @@ impl GapFiller {
                     k += 1;
                     continue;
                 }
-                // Hidden from k to e-1; seen at e (exists: the newest frame is all seen).
+                // Hidden from k to e-1; seen at e.
                 let mut e = k;
-                while !seen(self.pending[e].1[j].status) {
+                while e < n && !seen(self.pending[e].1[j].status) {
                     e += 1;
                 }
-                let before = if k == 0 {
-                    left.clone()
-                } else {
-                    self.pending[k - 1].1.clone()
+                if e == n {
+                    break; // still hidden on the newest frame
+                }
+                let before = match (k, &self.last) {
+                    (0, None) => {
+                        k = e + 1;
+                        continue;
+                    }
+                    (0, Some(left)) => left.clone(),
+                    _ => self.pending[k - 1].1.clone(),
                 };
                 let after = self.pending[e].1.clone();
                 let span = (e - k + 1) as f32;
@@ -163,5 +171,49 @@ mod tests {
         assert_eq!(out.len(), 3);
         assert!(out.iter().all(|(_, e)| e[0].pos.x == 5.0));
         assert_eq!(g.finish().len(), 0);
+    }
+
+    #[test]
+    fn a_closed_gap_is_filled_while_another_joint_stays_hidden() {
+        // Two roots: joint 0 hidden on frames 1-2 and seen on 3; joint 1 hidden from frame 1 on,
+        // so no frame is all seen and the limit (4 frames) hands frames out.
+        let mut g = GapFiller::new(vec![None, None], vec![0, 1], 4);
+        g.push(
+            0,
+            vec![est(0.0, 0.0, Status::Seed), est(0.0, 0.0, Status::Seed)],
+        );
+        let hid = Status::Occluded;
+        assert!(g
+            .push(1, vec![est(9.0, 9.0, hid), est(1.0, 0.0, hid)])
+            .is_empty());
+        assert!(g
+            .push(2, vec![est(9.0, 9.0, hid), est(2.0, 0.0, hid)])
+            .is_empty());
+        assert!(g
+            .push(3, vec![est(3.0, 0.0, Status::Ok), est(3.0, 0.0, hid)])
+            .is_empty());
+        assert!(g
+            .push(4, vec![est(4.0, 0.0, Status::Ok), est(4.0, 0.0, hid)])
+            .is_empty());
+        let out = g.push(5, vec![est(5.0, 0.0, Status::Ok), est(5.0, 0.0, hid)]);
+        assert_eq!(out.len(), 5);
+        assert!((out[0].1[0].pos - Point::new(1.0, 0.0)).norm() < 1e-4);
+        assert!((out[1].1[0].pos - Point::new(2.0, 0.0)).norm() < 1e-4);
+        // Joint 1 is still hidden: left as tracked.
+        assert_eq!(out[1].1[1].pos, Point::new(2.0, 0.0));
+    }
+
+    #[test]
+    fn a_gap_at_the_very_start_has_no_left_side_and_stays() {
+        let mut g = GapFiller::new(vec![None, None], vec![0, 1], 100);
+        let hid = Status::Occluded;
+        g.push(0, vec![est(7.0, 7.0, hid), est(0.0, 0.0, Status::Ok)]);
+        g.push(1, vec![est(2.0, 0.0, Status::Ok), est(1.0, 0.0, hid)]);
+        g.push(2, vec![est(2.0, 0.0, Status::Ok), est(9.0, 9.0, hid)]);
+        let out = g.finish();
+        assert_eq!(out.len(), 3);
+        assert_eq!(out[0].1[0].pos, Point::new(7.0, 7.0));
+        // Joint 1's gap (frames 1-2) is open at the end: as tracked.
+        assert_eq!(out[2].1[1].pos, Point::new(9.0, 9.0));
     }
 }
