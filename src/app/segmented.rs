@@ -452,21 +452,20 @@ impl Session {
                 row.1 = b;
             }
         }
-        // A joint hidden for long is filled again over the whole segment, between where it was
-        // seen on either side (the pass's filler hands frames out after `fill_gaps_max`, and a
-        // pass that lost a joint up to a keyframe coasted), up to the next keyframe if any.
-        let end_row = match (&end, &boundary) {
-            (Some(e), Some(_)) => Some((next, e.row.clone())),
-            _ => None,
-        };
-        let mut filler = tracker.gap_filler_over(out.len() + 1);
-        let mut filled = Vec::with_capacity(out.len() + 1);
-        for (idx, row) in out.iter().cloned().chain(end_row) {
-            filled.extend(filler.push(idx, row));
-        }
-        filled.extend(filler.finish());
-        for (row, (_, f)) in out.iter_mut().zip(filled) {
-            row.1 = f;
+        // Hidden stretches are filled again over the whole segment at once, between where the
+        // joint was seen on either side and with the frames around each gap at hand (the pass's
+        // filler hands frames out after `fill_gaps_max`, and a pass that lost a joint up to a
+        // keyframe coasted), up to the next keyframe if any.
+        if self.params.fill_gaps_max > 0 {
+            let end_row = match (&end, &boundary) {
+                (Some(e), Some(_)) => Some((next, e.row.clone())),
+                _ => None,
+            };
+            let rows = out.iter().cloned().chain(end_row).collect();
+            let filled = tracker.gap_filler().fill_all(rows);
+            for (row, (_, f)) in out.iter_mut().zip(filled) {
+                row.1 = f;
+            }
         }
         // Rows from several passes, or a pass and its keyframe, may count turns differently.
         for i in 1..out.len() {
