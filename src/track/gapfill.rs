@@ -84,8 +84,8 @@ impl GapFiller {
     /// Fills every gap in `pending` whose joint is seen again within it. When the newest frame
     /// has every joint seen, that is every gap; when frames are handed out because the limit
     /// is reached or the input ends, a joint still hidden on the newest frame keeps its last
-    /// gap as tracked, while the others' gaps are filled.
-    /// A gap at the very start (nothing handed out yet) has no left side and stays as tracked.
+    /// gap as tracked, while the others' gaps are filled. A gap at the very start (nothing
+    /// handed out yet) has no left side and stays as tracked.
     fn fill(&mut self) {
         let n = self.pending.len();
         for &j in &self.order.clone() {
@@ -137,9 +137,7 @@ impl GapFiller {
             }
         }
     }
-}
 
-impl GapFiller {
     /// The direction of bone `p -> j` over the gap `k..e` of `pending`, as a cubic fitted by
     /// least squares to the frames on either side where both joints are seen (up to `CONTEXT`
     /// a side, contiguous); `None` (interpolate linearly) with fewer than two on either side.
