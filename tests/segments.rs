@@ -492,6 +492,36 @@ fn a_correction_fixes_the_segment_before_it_only_when_resumed_from_there() {
 }
 
 #[test]
+fn segments_after_a_correction_go_on_from_it_and_resume_to_the_same_bytes() {
+    // A correction in the middle: the segments after it start from files the tool wrote, so
+    // they go on with the tracker built on the correction. Resuming from any of them (its state
+    // read back from disk) repeats the run that went through in one go, byte for byte.
+    let clip = Synth::new(Scenario::Walk, 320, 180, Some(60));
+    let run = clip.path("run.mocap");
+    clip.track("run.mocap", 15);
+    clip.correct(&run, 1);
+    resume_run(&run, Some(1)).unwrap();
+    let whole = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
+    for k in [2, 3] {
+        resume_run(&run, Some(k)).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(run.join("tracks.csv")).unwrap(),
+            whole,
+            "resumed from segment {k}, after the correction of segment 1"
+        );
+    }
+    let rows = read_tracks(&run.join("tracks.csv")).unwrap();
+    assert!(rows
+        .iter()
+        .filter(|r| r.frame == 15)
+        .all(|r| r.status == "seed"));
+    assert!(rows
+        .iter()
+        .filter(|r| r.frame == 30)
+        .all(|r| r.status != "seed"));
+}
+
+#[test]
 fn uncorrected_segment_boundaries_track_as_one_tracker() {
     // A boundary the user did not correct hands the whole tracker state on, so segments change
     // nothing but gap filling: a joint hidden across a boundary is not interpolated over it.

@@ -255,6 +255,87 @@ fn page_api_and_save() {
     );
 }
 
+/// The page's "Resume from here" on a run `track` wrote: a rectangle moved and saved on the
+/// page is a correction, the button resumes from its segment, and the new tracks start there.
+#[test]
+fn resume_from_here_takes_the_saved_correction() {
+    let dir = tempfile::tempdir().unwrap();
+    let clip = render(&SynthOptions {
+        scenario: Scenario::Walk,
+        width: 320,
+        height: 240,
+        seed: 4,
+        frames: Some(24),
+    });
+    write_clip(&clip, dir.path()).unwrap();
+    let mut opts = mocap2d::app::TrackOptions::new(
+        dir.path().join("clip.mp4"),
+        dir.path().join("joints.toml"),
+    );
+    opts.out = Some(dir.path().join("r.mocap"));
+    opts.segment_len = 10;
+    let run = mocap2d::app::track(&opts, &NoProgress).unwrap().run_dir;
+    let before = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
+    let srv = Served::start(&run);
+
+    // Segment 001 starts on frame 10: move the head 6 px right there and save.
+    let (st, seg) = srv.json("GET", "/api/segments/001", b"");
+    assert_eq!((st, seg["frame"].as_u64()), (200, Some(10)));
+    let edits: Vec<serde_json::Value> = seg["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| {
+            let dx = if j["name"] == "head" { 6.0 } else { 0.0 };
+            let x = j["x"].as_f64().unwrap() + dx;
+            serde_json::json!({"name": j["name"], "x": x, "y": j["y"], "w": j["w"], "h": j["h"], "angle": j["angle"]})
+        })
+        .collect();
+    let body = serde_json::json!({ "joints": edits }).to_string();
+    let (st, r) = srv.json("POST", "/api/segments/001", body.as_bytes());
+    assert_eq!((st, r["saved"].as_bool()), (200, Some(true)), "{r}");
+    let head_x = edits.iter().find(|j| j["name"] == "head").unwrap()["x"]
+        .as_f64()
+        .unwrap();
+
+    let (st, r) = srv.json("POST", "/api/segments/001/resume", b"");
+    assert_eq!((st, r["resumed"].as_bool()), (200, Some(true)), "{r}");
+    assert!(
+        r["message"].as_str().unwrap().contains("segment 001"),
+        "{r}"
+    );
+    let after = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
+    // Frames before the correction stay byte for byte; on it, the head is where it was put.
+    let upto = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter(|l| {
+                l.split(',')
+                    .next()
+                    .unwrap()
+                    .parse::<u64>()
+                    .is_ok_and(|f| f < 10)
+            })
+            .map(str::to_owned)
+            .collect()
+    };
+    assert_eq!(upto(&before), upto(&after));
+    let head: Vec<&str> = after
+        .lines()
+        .find(|l| l.starts_with("10,head,"))
+        .unwrap()
+        .split(',')
+        .collect();
+    assert!(
+        (head[2].parse::<f64>().unwrap() - head_x).abs() < 0.01,
+        "{head:?}"
+    );
+    assert_eq!(head[6], "seed");
+    // The tracks it replaced are kept, and the review was refreshed.
+    let history: Vec<_> = std::fs::read_dir(run.join("history")).unwrap().collect();
+    assert!(!history.is_empty());
+    assert!(run.join("review/confidence.png").exists());
+}
+
 #[test]
 fn bad_requests_get_4xx_and_touch_nothing() {
     let (_dir, run) = run_with_segments();

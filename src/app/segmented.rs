@@ -8,8 +8,9 @@
 //!   that file on that frame (appearance included);
 //! - on a file the tool wrote, the previous segment's tracker goes on: its whole state
 //!   ([`Tracker::state`], kept in `segments/NNN.state` for resume) is restored on a tracker
-//!   built from the seed frame, so an uncorrected boundary changes nothing but gap filling (a
-//!   joint hidden across a boundary is not interpolated over it). Restarting there instead
+//!   built as that one was, on the last keyframe before it (the seed frame, or the latest
+//!   corrected file), so an uncorrected boundary changes nothing but gap filling (a joint
+//!   hidden across a boundary is not interpolated over it). Restarting there instead
 //!   forgets that the character turned round (mirrored strips), what it learnt, and that the
 //!   body was lost: measured on `long` (900 frames, 640×360, segments of 150, PCK@5) over
 //!   seeds 1–3, going on gives 79.8 / 74.0 / 83.9 %, restarting at the file's rectangles with
@@ -59,6 +60,10 @@ pub struct Session {
     /// What the previous segment's tracker learnt ([`Tracker::state`]), when this
     /// run tracked it: the next segment starts from it (else from its `segments/NNN.state`).
     pub carried: Option<Vec<u8>>,
+    /// The last keyframe reached (segment 0 or a corrected file) and its frame: a tracker
+    /// that goes on is rebuilt there before its state is restored, since its appearance model
+    /// was built there (set by [`Session::run`]).
+    pub keyframe: Option<(u64, RgbImage)>,
 }
 
 /// What a finished segmented run reports.
@@ -76,8 +81,8 @@ enum Appearance<'a> {
     Here,
     /// On the seed frame, from segment 0's file; the tracker then restarts at the rectangles.
     SeedFrame,
-    /// As `SeedFrame`, then given what the previous segment's tracker learnt
-    /// ([`Tracker::state`]), for segment `.0`.
+    /// Built on the last keyframe as its tracker was (`Here` there), then given what the
+    /// previous segment's tracker learnt ([`Tracker::state`]), for segment `.0`.
     Learnt(u64, &'a [u8]),
 }
 
@@ -265,22 +270,21 @@ impl Session {
     /// appearance built there or on the seed frame (see the module docs).
     fn tracker_at(&self, start: &Start, frame: &RgbImage, appearance: Appearance) -> Result<Pass> {
         let t = match appearance {
-            Appearance::Here => {
-                let mut t = self.tracker(&start.seeds, frame);
-                if start.seeds.frame != self.plan().seed_frame {
-                    t.adopt_hidden_from(&self.seed_tracker()?, frame);
-                }
+            Appearance::Here => self.built_here(start, frame)?,
+            Appearance::SeedFrame => {
+                let mut t = self.seed_tracker()?;
+                let centres: Vec<_> = start.seeds.boxes().iter().map(|b| b.centre()).collect();
+                t.restart_at(&centres);
                 t
             }
-            Appearance::SeedFrame | Appearance::Learnt(..) => {
-                let mut t = self.seed_tracker()?;
-                if let Appearance::Learnt(k, bytes) = appearance {
-                    if !t.restore_state(bytes) {
-                        return Err(self.state_error(k, "does not fit this run"));
-                    }
-                } else {
-                    let centres: Vec<_> = start.seeds.boxes().iter().map(|b| b.centre()).collect();
-                    t.restart_at(&centres);
+            Appearance::Learnt(k, bytes) => {
+                let (j, image) = self
+                    .keyframe
+                    .as_ref()
+                    .expect("a keyframe is reached before any segment goes on");
+                let mut t = self.built_here(&self.start(*j)?, image)?;
+                if !t.restore_state(bytes) {
+                    return Err(self.state_error(k, "does not fit this run"));
                 }
                 t
             }
@@ -291,6 +295,27 @@ impl Session {
             _ => start.angles.clone(),
         };
         Ok(Pass::new(t, &angles, start.seeds.frame))
+    }
+
+    /// A tracker built on segment file `start`'s frame `frame` from its rectangles; off the seed
+    /// frame, bones hidden there keep the seed frame's appearance.
+    fn built_here(&self, start: &Start, frame: &RgbImage) -> Result<Tracker> {
+        let mut t = self.tracker(&start.seeds, frame);
+        if start.seeds.frame != self.plan().seed_frame {
+            t.adopt_hidden_from(&self.seed_tracker()?, frame);
+        }
+        Ok(t)
+    }
+
+    /// The keyframe the tracker of segment `k` was built on: the latest segment before `k` (or
+    /// `k` itself) that is segment 0 or starts on a correction.
+    fn keyframe_before(&self, k: u64) -> Result<u64> {
+        for j in (1..=k).rev() {
+            if self.correction(j)?.is_some() {
+                return Ok(j);
+            }
+        }
+        Ok(0)
     }
 
     /// Tracks from segment `first_segment` (whose file must exist) to the end of the clip,
@@ -309,11 +334,15 @@ impl Session {
             count: 0,
         };
         let start_frame = plan.first_frame(first_segment);
+        let keyframe = self.keyframe_before(first_segment)?;
         let mut cur = loop {
             match frames.next()? {
                 Some((idx, f)) => {
                     if idx == plan.seed_frame {
                         self.seed_image = Some(f.clone());
+                    }
+                    if idx == self.frame_of(keyframe) {
+                        self.keyframe = Some((keyframe, f.clone()));
                     }
                     if idx == start_frame {
                         break f;
@@ -379,6 +408,9 @@ impl Session {
         }
         let mut end = self.correction(k + 1)?;
         let keyframe = k == 0 || start.corrected;
+        if keyframe {
+            self.keyframe = Some((k, first.clone()));
+        }
         let learnt = match (keyframe, self.carried.take()) {
             (true, _) => None,
             (false, Some(b)) => Some(b),

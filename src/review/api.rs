@@ -22,7 +22,8 @@ pub const HISTORY_DIR: &str = "history";
 type Broken = (String, String);
 
 /// Runs the resume of segment number `k` of the run folder and refreshes the review outputs,
-/// returning a message for the page. Supplied by the app once `resume` exists (issue 4).
+/// returning a message for the page. Supplied by the app (`app::serve`); without it the page's
+/// button answers 501.
 pub type ResumeFn = dyn Fn(&Path, u32) -> Result<String> + Send + Sync;
 
 /// An HTTP reply: status, content type, body.

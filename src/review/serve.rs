@@ -6,7 +6,7 @@
 //! - `GET /api/run`: segments with flags, joints, frame size.
 //! - `GET /api/segments/ID`, `GET /api/segments/ID/frame.png`: one segment.
 //! - `POST /api/segments/ID`: save edited rectangles (JSON, at most [`MAX_BODY`] bytes).
-//! - `POST /api/segments/ID/resume`: resume tracking from the segment (501 until the app has a
+//! - `POST /api/segments/ID/resume`: resume tracking from the segment (501 when the app gives no
 //!   resume).
 //!
 //! Segment ids are digits, and every file served or written is a segment file of the run
