@@ -481,8 +481,10 @@ pub fn report(run_dir: &Path) -> Result<crate::run::report::Report> {
 }
 
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines
-/// (all joints first, then one line per joint when asked). Frames from the seed frame on.
+/// (all joints first; when the ground truth has a `visible` column, the joints seen in the image
+/// and those hidden; then one line per joint when asked). Frames from the seed frame on.
 pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
+    use crate::eval::{summarise, PointError};
     let rows = crate::run::tracks::read_tracks(&run_dir.join("tracks.csv"))?;
     let first = rows.first().map_or(0, |r| r.frame);
     let gt = crate::eval::read_gt(gt)?;
@@ -491,8 +493,16 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
         &gt,
         first,
     );
-    let all: Vec<f32> = errs.iter().map(|e| e.2).collect();
-    let mut lines = vec![format!("all joints: {}", crate::eval::summarise(&all))];
+    let px = |keep: &dyn Fn(&PointError) -> bool| -> Vec<f32> {
+        errs.iter().filter(|e| keep(e)).map(|e| e.px).collect()
+    };
+    let mut lines = vec![format!("all joints: {}", summarise(&px(&|_| true)))];
+    if errs.iter().any(|e| e.visible.is_some()) {
+        let seen = px(&|e| e.visible == Some(true));
+        let hidden = px(&|e| e.visible == Some(false));
+        lines.push(format!("visible joints: {}", summarise(&seen)));
+        lines.push(format!("hidden joints: {}", summarise(&hidden)));
+    }
     if per_joint {
         let mut names: Vec<&str> = Vec::new();
         for r in &rows {
@@ -502,8 +512,7 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
             names.push(&r.joint);
         }
         for n in names {
-            let e: Vec<f32> = errs.iter().filter(|e| e.1 == n).map(|e| e.2).collect();
-            lines.push(format!("{n}: {}", crate::eval::summarise(&e)));
+            lines.push(format!("{n}: {}", summarise(&px(&|e| e.joint == n))));
         }
     }
     Ok(lines)

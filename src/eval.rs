@@ -1,7 +1,10 @@
 //! Accuracy against ground truth: per joint-frame Euclidean error (px) between tracked centres
 //! and labelled positions, summarised as median, 95th percentile and PCK@N (share of
-//! joint-frames within N px). Ground truth is `frame,joint,x,y` (as `mocap2d synth` writes and
-//! as the labelled clips ship); a labelled point with no tracked row counts as a miss.
+//! joint-frames within N px). Ground truth is `frame,joint,x,y` (as the labelled clips ship; a
+//! point marked invisible there has no row), with an optional `visible` column: the share (0–1)
+//! of the joint drawn on top, which `mocap2d synth` writes, so that joints hidden in the image
+//! (below [`VISIBLE_FROM`]) can be told apart from seen ones. A labelled point with no tracked
+//! row counts as a miss.
 
 use crate::error::{Error, Result};
 use std::collections::HashMap;
@@ -14,6 +17,24 @@ pub struct GtRow {
     pub joint: String,
     pub x: f32,
     pub y: f32,
+    /// Share (0–1) of the joint visible in the image, when the ground truth says.
+    #[serde(default)]
+    pub visible: Option<f32>,
+}
+
+/// A joint whose `visible` share is at least this is seen in the image; below, something covers
+/// it (the synth's own threshold, see [`crate::synth::SynthClip::visibility`]).
+pub const VISIBLE_FROM: f32 = 0.3;
+
+/// The error of one tracked joint-frame against its ground truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointError {
+    pub frame: u64,
+    pub joint: String,
+    /// Centre error (px); infinite when the joint-frame was not tracked.
+    pub px: f32,
+    /// Whether the joint is seen in the image, when the ground truth says.
+    pub visible: Option<bool>,
 }
 
 /// Error summary over joint-frames.
@@ -63,7 +84,7 @@ pub fn summarise(errors: &[f32]) -> Accuracy {
     }
 }
 
-/// Reads a ground-truth CSV (`frame,joint,x,y`).
+/// Reads a ground-truth CSV (`frame,joint,x,y`, optionally `visible`).
 pub fn read_gt(path: &Path) -> Result<Vec<GtRow>> {
     let mut rdr = csv::Reader::from_path(path)
         .map_err(|e| Error::Usage(format!("{}: cannot read ground truth: {e}", path.display())))?;
@@ -77,12 +98,12 @@ pub fn read_gt(path: &Path) -> Result<Vec<GtRow>> {
 
 /// Per joint-frame errors of `tracked` (frame, joint, x, y) against `gt`, for ground-truth rows
 /// from `first_frame` on whose joint is tracked at all. A missing tracked row counts as infinite
-/// error. Returned in ground-truth order with the frame and joint.
+/// error. Returned in ground-truth order.
 pub fn errors<'a>(
     tracked: impl IntoIterator<Item = (u64, &'a str, f32, f32)>,
     gt: &[GtRow],
     first_frame: u64,
-) -> Vec<(u64, String, f32)> {
+) -> Vec<PointError> {
     let mut by_key: HashMap<(u64, &str), (f32, f32)> = HashMap::new();
     let mut joints = std::collections::HashSet::new();
     for (f, j, x, y) in tracked {
@@ -92,11 +113,16 @@ pub fn errors<'a>(
     gt.iter()
         .filter(|g| g.frame >= first_frame && joints.contains(g.joint.as_str()))
         .map(|g| {
-            let e = match by_key.get(&(g.frame, g.joint.as_str())) {
+            let px = match by_key.get(&(g.frame, g.joint.as_str())) {
                 Some(&(x, y)) => ((x - g.x).powi(2) + (y - g.y).powi(2)).sqrt(),
                 None => f32::INFINITY,
             };
-            (g.frame, g.joint.clone(), e)
+            PointError {
+                frame: g.frame,
+                joint: g.joint.clone(),
+                px,
+                visible: g.visible.map(|v| v >= VISIBLE_FROM),
+            }
         })
         .collect()
 }
@@ -123,16 +149,42 @@ mod tests {
                 joint: "a".into(),
                 x: 0.0,
                 y: 0.0,
+                visible: None,
             },
             GtRow {
                 frame: 1,
                 joint: "a".into(),
                 x: 3.0,
                 y: 4.0,
+                visible: None,
             },
         ];
         let e = errors([(0u64, "a", 0.0f32, 0.0f32)], &gt, 0);
-        assert_eq!(e[0].2, 0.0);
-        assert!(e[1].2.is_infinite());
+        assert_eq!(e[0].px, 0.0);
+        assert!(e[1].px.is_infinite());
+    }
+
+    #[test]
+    fn the_visible_column_is_optional_and_splits_seen_from_hidden() {
+        let dir = tempfile::tempdir().unwrap();
+        let with = dir.path().join("with.csv");
+        std::fs::write(
+            &with,
+            "frame,joint,x,y,visible\n0,a,0,0,0.80\n0,b,5,5,0.10\n",
+        )
+        .unwrap();
+        let without = dir.path().join("without.csv");
+        std::fs::write(&without, "frame,joint,x,y\n0,a,0,0\n").unwrap();
+        let gt = read_gt(&with).unwrap();
+        let e = errors([(0u64, "a", 1.0f32, 0.0f32), (0, "b", 5.0, 5.0)], &gt, 0);
+        assert_eq!(e[0].visible, Some(true));
+        assert_eq!(e[1].visible, Some(false));
+        assert_eq!(e[0].px, 1.0);
+        let gt = read_gt(&without).unwrap();
+        assert_eq!(gt[0].visible, None);
+        assert_eq!(
+            errors([(0u64, "a", 0.0f32, 0.0f32)], &gt, 0)[0].visible,
+            None
+        );
     }
 }

@@ -314,13 +314,23 @@ fn eval_prints_accuracy() {
     let o = d.run(&["eval", s(&run), "--gt", s(&walk("gt.csv"))]);
     assert_exit(&o, 0);
     let out = String::from_utf8(o.stdout.clone()).unwrap();
-    assert!(out.lines().any(|l| l.contains("PCK@5")), "{out}");
+    let lines: Vec<&str> = out.lines().collect();
+    // The sample's ground truth says which joints are visible: all, seen and hidden ones apart.
+    assert!(lines[0].starts_with("all joints: n=840 "), "{out}");
+    assert!(lines[1].starts_with("visible joints: n="), "{out}");
+    assert!(lines[2].starts_with("hidden joints: n="), "{out}");
+    let n = |l: &str| -> usize {
+        let rest = &l[l.find("n=").unwrap() + 2..];
+        rest[..rest.find(' ').unwrap()].parse().unwrap()
+    };
+    assert_eq!(n(lines[1]) + n(lines[2]), 840, "{out}");
+    assert!(n(lines[2]) > 0, "the sample has hidden joint-frames: {out}");
     let o = d.run(&["eval", s(&run), "--gt", s(&walk("gt.csv")), "--per-joint"]);
     assert_exit(&o, 0);
     let out = String::from_utf8(o.stdout.clone()).unwrap();
     assert_eq!(
         out.lines().filter(|l| l.contains("PCK@5")).count(),
-        1 + JOINTS,
+        3 + JOINTS,
         "{out}"
     );
     // Piped into a reader that has gone (`| head -1`): a quiet success, not a panic.

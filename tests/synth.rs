@@ -193,10 +193,11 @@ fn gt_csv_has_one_row_per_joint_per_frame() {
     let clip = render(&opts(Scenario::Walk, 160, 120, 0, Some(4)));
     let csv = clip.gt_csv();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "frame,joint,x,y");
+    assert_eq!(lines[0], "frame,joint,x,y,visible");
     assert_eq!(lines.len(), 1 + 4 * clip.joint_names.len());
     let (x, y) = clip.gt[0][0];
-    assert_eq!(lines[1], format!("0,pelvis,{x:.3},{y:.3}"));
+    let v = clip.visibility[0][0];
+    assert_eq!(lines[1], format!("0,pelvis,{x:.3},{y:.3},{v:.2}"));
     let last = clip.joint_names.last().unwrap();
     assert!(lines.last().unwrap().starts_with(&format!("3,{last},")));
 }

@@ -357,14 +357,15 @@ impl SynthClip {
         s
     }
 
-    /// The ground truth as CSV: header `frame,joint,x,y`, one row a joint a frame (frames in
-    /// order, joints in index order), positions in px with 3 decimals.
+    /// The ground truth as CSV: header `frame,joint,x,y,visible`, one row a joint a frame
+    /// (frames in order, joints in index order), positions in px with 3 decimals and the
+    /// joint's [`visibility`](Self::visibility) with 2.
     pub fn gt_csv(&self) -> String {
         use std::fmt::Write as _;
-        let mut s = String::from("frame,joint,x,y\n");
-        for (t, frame) in self.gt.iter().enumerate() {
-            for (name, (x, y)) in self.joint_names.iter().zip(frame) {
-                let _ = writeln!(s, "{t},{name},{x:.3},{y:.3}");
+        let mut s = String::from("frame,joint,x,y,visible\n");
+        for (t, (frame, vis)) in self.gt.iter().zip(&self.visibility).enumerate() {
+            for ((name, (x, y)), v) in self.joint_names.iter().zip(frame).zip(vis) {
+                let _ = writeln!(s, "{t},{name},{x:.3},{y:.3},{v:.2}");
             }
         }
         s
