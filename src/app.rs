@@ -324,7 +324,6 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         seed_image: None,
         last_angles: None,
         carried: None,
-        keyframe: None,
     };
     progress.start("track", info.frame_count_hint);
     let rx = decode::spawn_reader(source, 8);

@@ -61,7 +61,6 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
         seed_image: None,
         last_angles: None,
         carried: None,
-        keyframe: None,
     };
     // Every segment file from K on must read, and K's state be there, before anything is
     // written.

@@ -109,6 +109,22 @@ impl Motion {
         }
     }
 
+    /// Moves the joint to `at` (its parent at `parent`, px) without touching its rates or
+    /// uncertainty: a correction of where it is, not of how it moves.
+    pub fn moved_to(&mut self, at: Point, parent: Option<Point>) {
+        match self {
+            Motion::Root(k) => {
+                k.x.s[0] = at.x;
+                k.y.s[0] = at.y;
+            }
+            Motion::Bone { angle, log_len, .. } => {
+                let d = at - parent.unwrap_or(Point::origin());
+                angle.s[0] = unwrap_angle(angle.value(), d.y.atan2(d.x));
+                log_len.s[0] = d.norm().max(1.0).ln();
+            }
+        }
+    }
+
     /// Unobserved: the speed decays so the prediction does not run off on a stale rate.
     pub fn coast(&mut self) {
         match self {
@@ -118,5 +134,39 @@ impl Motion {
                 log_len.damp(0.5, 0.0);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_moved_joint_keeps_how_it_moves() {
+        let p = TrackParams::default();
+        // A bone turning 0.1 rad and a root moving 2 px a frame.
+        let mut bone = Motion::bone(Point::origin(), Point::new(10.0, 0.0), &p);
+        let mut root = Motion::root(Point::origin(), &p);
+        for t in 1..=20 {
+            let a = 0.1 * t as f32;
+            bone.predict(Some(Point::origin()), Point::new(1e3, 1e3));
+            bone.update(Point::new(10.0 * a.cos(), 10.0 * a.sin()), None, 0.5);
+            root.predict(None, Point::new(1e3, 1e3));
+            root.update(Point::new(2.0 * t as f32, 0.0), None, 0.5);
+        }
+        bone.moved_to(Point::new(0.0, 20.0), Some(Point::origin()));
+        root.moved_to(Point::new(100.0, 50.0), None);
+        let next = bone
+            .predict(Some(Point::origin()), Point::new(1e3, 1e3))
+            .pos;
+        // From straight down (pi/2), 20 px long, it goes on turning by about 0.1 rad.
+        let a = next.y.atan2(next.x);
+        assert!(
+            (a - (std::f32::consts::FRAC_PI_2 + 0.1)).abs() < 0.02,
+            "{a}"
+        );
+        assert!((next.coords.norm() - 20.0).abs() < 0.5, "{next:?}");
+        let next = root.predict(None, Point::new(1e3, 1e3)).pos;
+        assert!((next - Point::new(102.0, 50.0)).norm() < 0.2, "{next:?}");
     }
 }

@@ -149,10 +149,25 @@ impl Tracker {
     /// every status is `seed`. The appearance model is kept, and angles stay measured from the
     /// seed pose. For restarting a segment without rebuilding the appearance on its first frame.
     pub fn restart_at(&mut self, centres: &[Point]) {
+        self.restart(centres, false)
+    }
+
+    /// [`Tracker::restart_at`], the motion filters keeping their rates (a correction).
+    pub fn restart_moving(&mut self, centres: &[Point]) {
+        self.restart(centres, true)
+    }
+
+    fn restart(&mut self, centres: &[Point], moving: bool) {
         for &j in &self.order {
-            let motion = self.motion_at_rest(j, centres);
-            let state = &mut self.joints[j];
             let par = self.parents[j];
+            let motion = if moving {
+                let mut m = self.joints[j].motion.clone();
+                m.moved_to(centres[j], par.map(|p| centres[p]));
+                m
+            } else {
+                self.motion_at_rest(j, centres)
+            };
+            let state = &mut self.joints[j];
             state.motion = motion;
             state.hidden_run = 0;
             let dir = match par {
