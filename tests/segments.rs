@@ -1,6 +1,7 @@
 //! Segments, the correction report and `resume`, on synthetic clips with ground truth: the
 //! report flags where the tracks are far off, corrections written into the flagged segment
-//! files lift the accuracy, frames before a correction stay byte for byte, corrections are
+//! files lift the accuracy (all of them, or only the worst segment's, past which tracking goes
+//! on), frames before a correction stay byte for byte, corrections are
 //! never overwritten, a run killed mid-clip resumes to the very bytes of an uninterrupted run,
 //! and a run folder refuses another clip.
 #![cfg(feature = "ffmpeg")]

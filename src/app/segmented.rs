@@ -36,10 +36,9 @@
 //! on the correction and once with the seed frame's (and, when the segment itself starts on a
 //! correction, forward with both of those; the carried tracker still runs, to be carried on,
 //! but is left out of that blend: on flies with 12 files corrected it cost 1.5 points); the
-//! passes are blended. An
-//! appearance built on a correction keeps the seed frame's for the bones hidden there
-//! ([`Tracker::adopt_hidden_from`]):
-//! a far arm behind the body would otherwise be sampled off the near arm and followed there
+//! passes are blended. An appearance built on a correction keeps the seed frame's for the bones
+//! hidden there ([`Tracker::adopt_hidden_from`]): a far arm behind the body would otherwise be
+//! sampled off the near arm and followed there
 //! (measured on `long` with every segment file corrected, 640×360 in segments of 150, PCK@5 for
 //! seeds 1–3: 94.7 / 92.4 / 94.0 % -> 95.6 / 96.5 / 96.3 %).
 
