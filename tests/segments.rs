@@ -70,8 +70,35 @@ impl Synth {
 
     /// PCK@5 (0–1) of a run.
     fn pck5(&self, run: &Path) -> f32 {
-        let e = self.errors(run);
-        e.iter().filter(|(_, d)| *d <= 5.0).count() as f32 / e.len() as f32
+        self.pck5_from(run, 0)
+    }
+
+    /// PCK@5 (0–1) of a run over the frames from `from` on.
+    fn pck5_from(&self, run: &Path, from: u64) -> f32 {
+        let e: Vec<f32> = self
+            .errors(run)
+            .into_iter()
+            .filter(|(f, _)| *f >= from)
+            .map(|(_, d)| d)
+            .collect();
+        e.iter().filter(|d| **d <= 5.0).count() as f32 / e.len() as f32
+    }
+
+    /// Corrects segment `k`'s file and the next one's (what the report asks for segment `k`)
+    /// and resumes from where they start. Returns PCK@5 from segment `k`'s first frame `from`
+    /// on, before and after.
+    fn correct_segment(&self, run: &Path, k: u64, from: u64) -> (f32, f32) {
+        let before = self.pck5_from(run, from);
+        self.correct(run, k);
+        self.correct(run, k + 1);
+        resume_run(run, None).unwrap();
+        let after = self.pck5_from(run, from);
+        println!(
+            "segment {k} and the next corrected: PCK@5 from frame {from} {:.1} -> {:.1} %",
+            100.0 * before,
+            100.0 * after
+        );
+        (before, after)
     }
 
     /// Writes the ground truth into segment `k`'s file (a correction, as a user would make).
@@ -243,26 +270,7 @@ fn correcting_only_the_worst_segment_makes_the_rest_better() {
         .iter()
         .find(|&&k| k + 2 < first.segments)
         .unwrap();
-    let pck_from = |run: &Path, from: u64| -> f32 {
-        let e: Vec<f32> = s
-            .errors(run)
-            .into_iter()
-            .filter(|(f, _)| *f >= from)
-            .map(|(_, d)| d)
-            .collect();
-        e.iter().filter(|d| **d <= 5.0).count() as f32 / e.len() as f32
-    };
-    let from = k * len;
-    let before = pck_from(&run, from);
-    s.correct(&run, k);
-    s.correct(&run, k + 1);
-    resume_run(&run, None).unwrap();
-    let after = pck_from(&run, from);
-    println!(
-        "segment {k} and the next corrected: PCK@5 from frame {from} {:.1} -> {:.1} %",
-        100.0 * before,
-        100.0 * after
-    );
+    let (before, after) = s.correct_segment(&run, k, k * len);
     // Measured: 79.1 -> 85.0 %. Carrying on the tracker built on the correction (until the
     // fifth session; before that, resume failed at the segment after the corrections): 81.2 %.
     assert!(after >= 0.84, "{before} -> {after}");
@@ -275,17 +283,7 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let run = s.path("run");
     let first = s.track("run", 150);
-    let before = s.pck5(&run);
-    let k = first.flagged[0];
-    s.correct(&run, k);
-    s.correct(&run, k + 1);
-    resume_run(&run, None).unwrap();
-    let after = s.pck5(&run);
-    println!(
-        "segment {k} and the next corrected: PCK@5 {:.1} -> {:.1} %",
-        100.0 * before,
-        100.0 * after
-    );
+    let (before, after) = s.correct_segment(&run, first.flagged[0], 0);
     // Measured: 91.0 -> 93.3 % (segment 1). Carrying on the tracker built on the correction
     // (until the fifth session): 81.6 %.
     assert!(after >= 0.925, "{before} -> {after}");

@@ -13,15 +13,15 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-/// A tracked synth run (320×240, 30 frames) with segment files at frames 0, 10 and 20.
-fn run_with_segments() -> (tempfile::TempDir, PathBuf) {
+/// A synth walk (320×240, `frames` frames) tracked into `r.mocap` in segments of `segment_len`.
+fn tracked_walk(frames: u32, segment_len: u64) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let clip = render(&SynthOptions {
         scenario: Scenario::Walk,
         width: 320,
         height: 240,
         seed: 4,
-        frames: Some(30),
+        frames: Some(frames),
     });
     write_clip(&clip, dir.path()).unwrap();
     let mut opts = mocap2d::app::TrackOptions::new(
@@ -29,7 +29,14 @@ fn run_with_segments() -> (tempfile::TempDir, PathBuf) {
         dir.path().join("joints.toml"),
     );
     opts.out = Some(dir.path().join("r.mocap"));
+    opts.segment_len = segment_len;
     let run = mocap2d::app::track(&opts, &NoProgress).unwrap().run_dir;
+    (dir, run)
+}
+
+/// A tracked synth run (320×240, 30 frames) with segment files at frames 0, 10 and 20.
+fn run_with_segments() -> (tempfile::TempDir, PathBuf) {
+    let (dir, run) = tracked_walk(30, mocap2d::app::DEFAULT_SEGMENT_LEN);
     let (seeds, _) = read_seeds(&run.join("seeds.toml")).unwrap();
     let rows = mocap2d::run::tracks::read_tracks(&run.join("tracks.csv")).unwrap();
     // Replace the segment files `track` wrote (frames 0 and 29) with three of our own.
@@ -259,22 +266,7 @@ fn page_api_and_save() {
 /// page is a correction, the button resumes from its segment, and the new tracks start there.
 #[test]
 fn resume_from_here_takes_the_saved_correction() {
-    let dir = tempfile::tempdir().unwrap();
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Walk,
-        width: 320,
-        height: 240,
-        seed: 4,
-        frames: Some(24),
-    });
-    write_clip(&clip, dir.path()).unwrap();
-    let mut opts = mocap2d::app::TrackOptions::new(
-        dir.path().join("clip.mp4"),
-        dir.path().join("joints.toml"),
-    );
-    opts.out = Some(dir.path().join("r.mocap"));
-    opts.segment_len = 10;
-    let run = mocap2d::app::track(&opts, &NoProgress).unwrap().run_dir;
+    let (_dir, run) = tracked_walk(24, 10);
     let before = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
     let srv = Served::start(&run);
 

@@ -464,17 +464,19 @@ impl Session {
             }
             _ => None,
         };
-        if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
-            let mut passes: Vec<Vec<Vec<JointEstimate>>> = Vec::new();
-            let inner = |p: &[(u64, Vec<JointEstimate>)]| -> Vec<Vec<JointEstimate>> {
-                p[1..=held.len()].iter().map(|(_, e)| e.clone()).collect()
-            };
+        // Each pass's estimates on the frames between the first and the next keyframe (`n`).
+        let between = |p: &[(u64, Vec<JointEstimate>)], n: usize| -> Vec<Vec<JointEstimate>> {
+            p[1..=n].iter().map(|(_, e)| e.clone()).collect()
+        };
+        let passes = if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
+            let n = held.len();
+            let mut passes = Vec::new();
             // Between two corrections, the passes that start on them decide: the carried tracker
             // adds nothing there (on flies, 12 files corrected, it cost 1.5 points).
             if !corrected {
-                passes.push(inner(&out));
+                passes.push(between(&out, n));
             }
-            passes.extend(forward.iter().map(|p| inner(p)));
+            passes.extend(forward.iter().map(|p| between(p, n)));
             for appearance in [Appearance::Here, Appearance::SeedFrame] {
                 let mut p = self.tracker_at(end, bf, appearance)?;
                 for (i, f) in held.iter().enumerate().rev() {
@@ -482,20 +484,20 @@ impl Session {
                 }
                 let mut back = p.finish();
                 back.reverse();
-                passes.push(back[..held.len()].iter().map(|(_, e)| e.clone()).collect());
+                passes.push(back[..n].iter().map(|(_, e)| e.clone()).collect());
             }
-            for (row, b) in out[1..].iter_mut().zip(super::blend::blend(&passes)) {
-                row.1 = b;
-            }
+            passes
         } else if corrected {
             // After the last correction: the carried tracker and the one built on the
-            // correction, blended.
-            let m = out.len();
-            let inner = |p: &[(u64, Vec<JointEstimate>)]| -> Vec<Vec<JointEstimate>> {
-                p[1..m].iter().map(|(_, e)| e.clone()).collect()
-            };
-            let mut passes = vec![inner(&out)];
-            passes.extend(forward.iter().map(|p| inner(p)));
+            // correction.
+            let n = out.len() - 1;
+            let mut passes = vec![between(&out, n)];
+            passes.extend(forward.iter().map(|p| between(p, n)));
+            passes
+        } else {
+            Vec::new()
+        };
+        if !passes.is_empty() {
             for (row, b) in out[1..].iter_mut().zip(super::blend::blend(&passes)) {
                 row.1 = b;
             }
