@@ -247,10 +247,12 @@ fn the_report_flags_where_the_tracks_are_far_off() {
 fn corrections_of_flagged_segments_lift_accuracy() {
     let s = Synth::new(Scenario::Long, 320, 180, Some(240));
     let (before, after) = correct_flagged(&s, 40);
-    // Measured: 83.6 % -> 96.5 % (all six segments flagged; their seven files corrected).
-    // Without the seed appearance for bones hidden on a keyframe: 96.0 %; without filling
-    // joints hidden in every blended pass between the keyframes as well: 95.4 %.
-    assert!(after >= 0.962, "PCK@5 {before} -> {after}");
+    // Measured: 89.4 % -> 95.8 % (all six segments flagged; their seven files corrected).
+    // With the defaults before the sixth session (appearance learnt half as fast): 83.6 % ->
+    // 96.5 %, but seed 2 of this clip 94.7 % against 96.8 % now. Without the seed appearance
+    // for bones hidden on a keyframe: 96.0 %; without filling joints hidden in every blended
+    // pass between the keyframes as well: 95.4 % (both with the earlier defaults).
+    assert!(after >= 0.955, "PCK@5 {before} -> {after}");
     assert!(after > before);
 }
 
@@ -271,8 +273,9 @@ fn correcting_only_the_worst_segment_makes_the_rest_better() {
         .find(|&&k| k + 2 < first.segments)
         .unwrap();
     let (before, after) = s.correct_segment(&run, k, k * len);
-    // Measured: 79.1 -> 85.0 %. Carrying on the tracker built on the correction (until the
-    // fifth session; before that, resume failed at the segment after the corrections): 81.2 %.
+    // Measured: 87.3 -> 89.6 % (79.1 -> 85.0 % with the defaults before the sixth session).
+    // Carrying on the tracker built on the correction (until the fifth session; before that,
+    // resume failed at the segment after the corrections): 81.2 % (earlier defaults).
     assert!(after >= 0.84, "{before} -> {after}");
 }
 
@@ -284,8 +287,9 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
     let run = s.path("run");
     let first = s.track("run", 150);
     let (before, after) = s.correct_segment(&run, first.flagged[0], 0);
-    // Measured: 91.0 -> 93.3 % (segment 1). Carrying on the tracker built on the correction
-    // (until the fifth session): 81.6 %.
+    // Measured: 90.2 -> 94.2 % (segment 1; 91.0 -> 93.3 % with the defaults before the sixth
+    // session). Carrying on the tracker built on the correction (until the fifth session):
+    // 81.6 % (earlier defaults).
     assert!(after >= 0.925, "{before} -> {after}");
 }
 
@@ -295,12 +299,13 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);
-    // Measured: 91.0 % -> 95.7 % (every segment flagged, all seven files corrected). The
-    // issue's target is 98 %: not reached (see the README, "Segments, corrections and resume").
-    // Without the seed appearance for bones hidden on a keyframe: 94.7 %; without filling
-    // joints hidden in every blended pass between the keyframes as well: 94.2 %. (95.6 % before
-    // each joint's closed gaps were filled while another stayed hidden.)
-    assert!(after >= 0.953, "PCK@5 {before} -> {after}");
+    // Measured: 90.2 % -> 96.0 % (every segment flagged, all seven files corrected; 95.7 % with
+    // the defaults before the sixth session). The target is 98 %: not reached (see the
+    // README, "Segments, corrections and resume"). With the earlier defaults: without the seed
+    // appearance for bones hidden on a keyframe 94.7 %; without filling joints hidden in every
+    // blended pass between the keyframes as well 94.2 %; 95.6 % before each joint's closed gaps
+    // were filled while another stayed hidden.
+    assert!(after >= 0.958, "PCK@5 {before} -> {after}");
 }
 
 /// Runs the binary with `args`, waiting for it.
