@@ -128,6 +128,10 @@ pub struct TrackParams {
     pub redetect_share: f32,
 }
 
+/// The defaults. `anchor_weight`, `update_rate`, `meas_sigma_px` and `reacquire_share` were
+/// retuned in the sixth session on 150 synth clips (`scripts/accuracy`, seeds 1–30 of the five
+/// short scenarios): mean PCK@5 95.8 → 97.0 %, at about 6 % more time a frame (README,
+/// "Accuracy").
 impl Default for TrackParams {
     fn default() -> Self {
         TrackParams {
