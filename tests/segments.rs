@@ -562,8 +562,8 @@ fn a_correction_fixes_the_segment_before_it_only_when_resumed_from_there() {
 #[test]
 fn segments_after_a_correction_go_on_from_it_and_resume_to_the_same_bytes() {
     // A correction in the middle: the segments after it start from files the tool wrote, so
-    // they go on with the tracker built on the correction. Resuming from any of them (its state
-    // read back from disk) repeats the run that went through in one go, byte for byte.
+    // they go on with the run's tracker, moved to the correction. Resuming from any of them (its
+    // state read back from disk) repeats the run that went through in one go, byte for byte.
     let clip = Synth::new(Scenario::Walk, 320, 180, Some(60));
     let run = clip.path("run.mocap");
     clip.track("run.mocap", 15);
