@@ -41,6 +41,11 @@ pub struct TrackParams {
     pub prior_sigma_px: f32,
     /// Smallest spread of a bone's length prior (share of its length).
     pub length_sigma: f32,
+    /// Where a bone's length prior is centred (0–1): 0 on its predicted length, 1 on its seed
+    /// length times its body's current scale (the median over the body's bones of predicted
+    /// over seed length); between, a geometric blend. 1 stops one bone creeping shorter or
+    /// longer while the body as a whole may grow or shrink (nearer or further from the camera).
+    pub length_anchor: f32,
     /// Smallest initial colour scale σ of the robust cost (levels per channel); it starts at
     /// twice the clip's measured noise if that is more, and adapts per bone to the residuals it
     /// sees, between 0.75× and 2× its start.
@@ -150,6 +155,7 @@ impl Default for TrackParams {
             prior_weight: 1.0,
             prior_sigma_px: 3.0,
             length_sigma: 0.15,
+            length_anchor: 1.0,
             colour_sigma: 10.0,
             anchor_weight: 0.3,
             update_rate: 0.2,

@@ -306,6 +306,11 @@ impl Strip {
         self.samples.len()
     }
 
+    /// Bone length (px) on the frame the strip was sampled on.
+    pub fn seed_len(&self) -> f32 {
+        self.seed_len
+    }
+
     /// Whether the strip has no samples (never true for a strip from [`Strip::sample`]).
     pub fn is_empty(&self) -> bool {
         self.samples.is_empty()
