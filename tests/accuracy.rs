@@ -18,21 +18,22 @@ use std::path::Path;
 /// returns (median px, PCK@5 in 0–1) with the folder holding `clip.mp4`, `gt.csv` and the run
 /// folder `run/`.
 fn synth_run(scenario: Scenario, frames: Option<u32>) -> ((f32, f32), tempfile::TempDir) {
-    synth_run_with(scenario, frames, TrackOptions::new("", "").segment_len)
+    synth_run_with(scenario, frames, TrackOptions::new("", "").segment_len, 1)
 }
 
-/// [`synth_run`] with segments of `segment_len` frames.
+/// [`synth_run`] with segments of `segment_len` frames, of the clip rendered with `seed`.
 fn synth_run_with(
     scenario: Scenario,
     frames: Option<u32>,
     segment_len: u64,
+    seed: u64,
 ) -> ((f32, f32), tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
     let clip = render(&SynthOptions {
         scenario,
         width: 640,
         height: 360,
-        seed: 1,
+        seed,
         frames,
     });
     write_clip(&clip, dir.path()).unwrap();
@@ -43,7 +44,7 @@ fn synth_run_with(
     };
     track(&opts, &NoProgress).unwrap();
     let line = &eval(&dir.path().join("run"), &dir.path().join("gt.csv"), false).unwrap()[0];
-    println!("{scenario}: {line}");
+    println!("{scenario} seed {seed}: {line}");
     (parse_line(line), dir)
 }
 
@@ -72,7 +73,8 @@ fn walk_keeps_joints_within_5px_through_the_far_arm_passing_behind() {
 
 #[test]
 fn occlude_keeps_joints_within_5px_with_crossing_legs_and_hidden_arm() {
-    // Measured: median 0.10 px, PCK@5 96.8 % (issue target: >= 95 %, <= 1.5 px).
+    // Measured: median 0.10 px, PCK@5 96.6 % (issue target: >= 95 %, <= 1.5 px); 96.8 % before
+    // the bone-length prior was anchored to the seed length.
     assert_accuracy(Scenario::Occlude, 0.3, 0.95);
 }
 
@@ -84,16 +86,50 @@ fn fast_punches_and_kicks_stay_tracked() {
 
 #[test]
 fn squash_and_stretch_is_tracked() {
-    // Measured: median 0.38 px, PCK@5 95.2 % (80 joint-frames off, 84 allowed by the issue's
-    // 95 %). 94.9 % (85 off) with the defaults before the sixth session; over seeds 1-30 the
-    // mean is 94.8 % (see the README). Without searching hidden bones at their seen lengths and
-    // counting a joint placed by its found child as seen: 93.3 %.
-    assert_accuracy(Scenario::Squash, 0.6, 0.95);
+    // One seed swings by a point either way on any change (see the README), so the issue's 95 %
+    // is asserted on the mean of seeds 1-5. Measured: 94.8 / 96.2 / 94.0 / 96.0 / 95.8 %, mean
+    // 95.36 %, medians 0.36-0.56 px; over seeds 1-30 95.2 %. Before the bone-length prior was
+    // anchored to the seed length (`length_anchor = 0`): 95.2 / 96.2 / 92.6 / 96.2 / 94.8 %,
+    // mean 95.0 %, over seeds 1-30 94.8 %. Without searching hidden bones at their seen lengths
+    // and counting a joint placed by its found child as seen, seed 1 gave 93.3 %.
+    let mut sum = 0.0;
+    for seed in 1..=5 {
+        let ((median, pck5), _dir) = synth_run_with(
+            Scenario::Squash,
+            None,
+            TrackOptions::new("", "").segment_len,
+            seed,
+        );
+        assert!(median <= 0.7, "squash seed {seed}: median {median} px");
+        assert!(pck5 >= 0.935, "squash seed {seed}: PCK@5 {pck5}");
+        sum += pck5;
+    }
+    assert!(sum / 5.0 >= 0.952, "squash: mean PCK@5 {}", sum / 5.0);
+}
+
+/// A short bone of one flat colour (the shoe, ankle to toe, 17 px) matches anywhere along
+/// itself, so nothing in the image stops it creeping shorter; its length prior is centred on its
+/// seed length times the body's scale (`length_anchor`), not on the length it crept to.
+#[test]
+fn a_short_flat_bone_keeps_its_length() {
+    let segment_len = TrackOptions::new("", "").segment_len;
+    let (_, dir) = synth_run_with(Scenario::Fast, None, segment_len, 27);
+    let lines = eval(&dir.path().join("run"), &dir.path().join("gt.csv"), true).unwrap();
+    let toe = lines.iter().find(|l| l.starts_with("toe_r:")).unwrap();
+    println!("{toe}");
+    let (median, pck5) = parse_line(toe);
+    // Measured: median 0.28 px, PCK@5 99.2 %. Centred on the predicted length
+    // (`length_anchor = 0`, the behaviour until the seventh session): 5.1 px, 49.2 %, the toe
+    // up to 12 px short of the shoe's tip.
+    assert!(median <= 1.0, "toe_r median {median} px");
+    assert!(pck5 >= 0.95, "toe_r PCK@5 {pck5}");
 }
 
 #[test]
 fn noise_flicker_and_compression_are_tracked() {
-    // Measured: median 0.36 px, PCK@5 98.6 % (issue target: >= 95 %, <= 1.5 px).
+    // Measured: median 0.35 px, PCK@5 97.6 % (issue target: >= 95 %, <= 1.5 px); 98.6 % before
+    // the bone-length prior was anchored to the seed length, but over seeds 1-30 the mean went
+    // from 94.7 to 96.7 % (see the README).
     assert_accuracy(Scenario::Noisy, 0.6, 0.95);
 }
 
@@ -104,11 +140,12 @@ fn long_clip_with_turns_is_tracked() {
     // Default segments of 150: tracking goes on through uncorrected segment files (one
     // segment: 80.5 %).
     let ((median, pck5), _dir) = synth_run(Scenario::Long, None);
-    // Measured: median 0.16 px, PCK@5 90.2 % (issue target: >= 85 %, <= 2.5 px); seeds 2-5:
-    // 94.5, 92.5, 93.2, 93.8 % (91.0, 93.2, 93.5, 94.1, 92.1 % with the defaults before the
-    // sixth session). 87.7 % without filling one joint's gaps while another stays hidden (see
-    // gapfill).
-    assert!(pck5 >= 0.90, "PCK@5 {pck5}, median {median}");
+    // Measured: median 0.15 px, PCK@5 91.4 % (issue target: >= 85 %, <= 2.5 px); seeds 2-5:
+    // 92.8, 93.5, 94.5, 92.3 %. Before the bone-length prior was anchored to the seed length
+    // 90.2, 94.5, 92.5, 93.2, 93.8 % (seeds 1-10: mean 92.3 against 93.0 % now); with the
+    // defaults before the sixth session 91.0, 93.2, 93.5, 94.1, 92.1 %. 87.7 % without filling
+    // one joint's gaps while another stays hidden (see gapfill).
+    assert!(pck5 >= 0.91, "PCK@5 {pck5}, median {median}");
     assert!(median <= 0.5, "median {median}");
 }
 
@@ -166,18 +203,20 @@ fn flies_clip_runs_and_reports_its_error() {
     let line = &eval(&dir.path().join("run"), &shared.join("gt.csv"), false).unwrap()[0];
     println!("flies: {line}");
     let (median, pck5) = parse_line(line);
-    // Measured: median 0.64 px, PCK@5 75.4 %, PCK@10 79.0 % (74.4 % with the defaults before
-    // the sixth session). 69.1 % before bodies were kept
+    // Measured: median 0.63 px, PCK@5 77.4 %, PCK@10 80.6 % (75.4 % before the bone-length
+    // prior was anchored to the seed length, 74.4 % with the defaults before the sixth
+    // session). 69.1 % before bodies were kept
     // apart (the female, lost at frame 1252, was found again on the male and called `ok`);
     // 69.9 % before the plate was cleared of the flies resting on the seed frame (the median
     // plate held them, so their strips were only ~5 px wide once they walked).
-    assert!(pck5 >= 0.74, "PCK@5 {pck5}");
+    assert!(pck5 >= 0.77, "PCK@5 {pck5}");
     assert!(median <= 1.0, "median {median}");
 
     // The correction workflow on real footage: the labels written into the segment files the
     // report names, then `resume` from the first. Measured: files 6-10 (frames 900-1499, where
-    // the flies walk), PCK@5 75.4 -> 82.6 %, PCK@10 86.0 % (82.8 % with the defaults before the
-    // sixth session; 83.0 % before bones hidden on a correction kept the seed appearance).
+    // the flies walk), PCK@5 77.4 -> 83.0 %, PCK@10 86.4 % (82.6 % before the bone-length prior
+    // was anchored to the seed length; 82.8 % with the defaults before the sixth session; 83.0 %
+    // before bones hidden on a correction kept the seed appearance).
     let run = dir.path().join("run");
     assert_eq!(s.to_correct, vec![6, 7, 8, 9, 10], "report: {}", s.report);
     let gt: HashMap<(u64, String), (f32, f32)> = read_gt(&shared.join("gt.csv"))
@@ -279,7 +318,8 @@ fn a_body_lost_for_a_while_is_found_again() {
         75,
     );
     println!("PCK@5 after the jump: {with} with re-detection, {without} without");
-    // Measured: 89.2 % with, 0 % without (frames 75–119).
+    // Measured: 90.3 % with, 0 % without (frames 75–119); 89.2 % with before the bone-length
+    // prior was anchored to the seed length.
     assert!(with >= 0.8, "with re-detection: PCK@5 {with}");
     assert!(without < 0.5, "without re-detection: PCK@5 {without}");
 }

@@ -24,12 +24,23 @@ struct Synth {
 
 impl Synth {
     fn new(scenario: Scenario, width: u32, height: u32, frames: Option<u32>) -> Synth {
+        Synth::seeded(scenario, width, height, frames, 1)
+    }
+
+    /// [`Synth::new`] rendered with another random `seed` (motion, colours, textures).
+    fn seeded(
+        scenario: Scenario,
+        width: u32,
+        height: u32,
+        frames: Option<u32>,
+        seed: u64,
+    ) -> Synth {
         let dir = tempfile::tempdir().unwrap();
         let clip = render(&SynthOptions {
             scenario,
             width,
             height,
-            seed: 1,
+            seed,
             frames,
         });
         write_clip(&clip, dir.path()).unwrap();
@@ -242,41 +253,64 @@ fn the_report_flags_where_the_tracks_are_far_off() {
     assert!(recall >= 0.9 && listed >= 0.9);
 }
 
-/// A short mixed clip (walk, turn, walk back), segments of 40 frames.
+/// A short mixed clip (walk, turn, walk back), segments of 40 frames, seeds 1-5 (one seed
+/// swings by a point either way on any change to the tracker).
 #[test]
 fn corrections_of_flagged_segments_lift_accuracy() {
-    let s = Synth::new(Scenario::Long, 320, 180, Some(240));
-    let (before, after) = correct_flagged(&s, 40);
-    // Measured: 89.4 % -> 95.8 % (all six segments flagged; their seven files corrected).
-    // With the defaults before the sixth session (appearance learnt half as fast): 83.6 % ->
-    // 96.5 %, but seed 2 of this clip 94.7 % against 96.8 % now. Without the seed appearance
-    // for bones hidden on a keyframe: 96.0 %; without filling joints hidden in every blended
-    // pass between the keyframes as well: 95.4 % (both with the earlier defaults).
-    assert!(after >= 0.955, "PCK@5 {before} -> {after}");
-    assert!(after > before);
+    let mut sum = 0.0;
+    for seed in 1..=5 {
+        let s = Synth::seeded(Scenario::Long, 320, 180, Some(240), seed);
+        let (before, after) = correct_flagged(&s, 40);
+        println!("seed {seed}: PCK@5 {before} -> {after}");
+        assert!(after > before, "seed {seed}: PCK@5 {before} -> {after}");
+        assert!(after >= 0.945, "seed {seed}: PCK@5 {before} -> {after}");
+        sum += after;
+    }
+    // Measured (all six segments flagged, their seven files corrected): 91.7 -> 95.1, 94.7 ->
+    // 96.6, 86.3 -> 96.6, 92.0 -> 96.0, 89.0 -> 95.8 %, mean 96.0 %. Before the bone-length prior
+    // was anchored to the seed length: 95.8 / 96.8 / 96.0 / 95.4 / 95.8 %, mean 96.0 %. Seed 1
+    // with the defaults before the sixth session (appearance learnt half as fast): 83.6 ->
+    // 96.5 %; without the seed appearance for bones hidden on a keyframe: 96.0 %; without filling
+    // joints hidden in every blended pass between the keyframes as well: 95.4 % (both with the
+    // earlier defaults).
+    assert!(sum / 5.0 >= 0.955, "mean PCK@5 {}", sum / 5.0);
 }
 
 /// What a user does first: correct only the worst flagged segment (its file and the next one,
 /// as the report says) and resume. Tracking goes on past the corrections, and the frames from
-/// the correction on must come out better than they were tracked.
+/// the correction on must come out better than they were tracked, over seeds 1-5: on one clip
+/// a correction can lead a later stretch astray where the uncorrected run happened to hold.
 #[test]
 fn correcting_only_the_worst_segment_makes_the_rest_better() {
-    let s = Synth::new(Scenario::Long, 320, 180, Some(240));
     let len = 40;
-    let run = s.path("run");
-    let first = s.track("run", len);
-    // The worst flagged segment with at least two after it, so that tracking goes on past the
-    // corrected files.
-    let k = *first
-        .flagged
-        .iter()
-        .find(|&&k| k + 2 < first.segments)
-        .unwrap();
-    let (before, after) = s.correct_segment(&run, k, k * len);
-    // Measured: 87.3 -> 89.6 % (79.1 -> 85.0 % with the defaults before the sixth session).
+    let (mut before_sum, mut after_sum) = (0.0, 0.0);
+    for seed in 1..=5 {
+        let s = Synth::seeded(Scenario::Long, 320, 180, Some(240), seed);
+        let run = s.path("run");
+        let first = s.track("run", len);
+        // The worst flagged segment with at least two after it, so that tracking goes on past
+        // the corrected files.
+        let k = *first
+            .flagged
+            .iter()
+            .find(|&&k| k + 2 < first.segments)
+            .unwrap();
+        let (before, after) = s.correct_segment(&run, k, k * len);
+        assert!(after >= 0.86, "seed {seed}: {before} -> {after}");
+        before_sum += before;
+        after_sum += after;
+    }
+    // Measured: 90.1 -> 88.6, 93.6 -> 94.1, 82.3 -> 90.3, 89.5 -> 92.1, 86.8 -> 90.4 %; means
+    // 88.5 -> 91.1 %. Before the bone-length prior was anchored to the seed length: 87.3 ->
+    // 89.6, 93.1 -> 91.7, 75.5 -> 90.7, 89.3 -> 89.6, 92.4 -> 86.1 %; means 87.5 -> 89.5 %.
     // Carrying on the tracker built on the correction (until the fifth session; before that,
-    // resume failed at the segment after the corrections): 81.2 % (earlier defaults).
-    assert!(after >= 0.84, "{before} -> {after}");
+    // resume failed at the segment after the corrections): seed 1 81.2 % (earlier defaults).
+    assert!(
+        after_sum >= before_sum + 0.05,
+        "mean PCK@5 {} -> {}",
+        before_sum / 5.0,
+        after_sum / 5.0
+    );
 }
 
 /// The same on `long` at 640×360 in segments of 150.
@@ -287,7 +321,8 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
     let run = s.path("run");
     let first = s.track("run", 150);
     let (before, after) = s.correct_segment(&run, first.flagged[0], 0);
-    // Measured: 90.2 -> 94.2 % (segment 1; 91.0 -> 93.3 % with the defaults before the sixth
+    // Measured: 91.4 -> 93.9 % (segment 2; 90.2 -> 94.2 % with segment 1 before the bone-length
+    // prior was anchored to the seed length; 91.0 -> 93.3 % with the defaults before the sixth
     // session). Carrying on the tracker built on the correction (until the fifth session):
     // 81.6 % (earlier defaults).
     assert!(after >= 0.925, "{before} -> {after}");
@@ -299,13 +334,14 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);
-    // Measured: 90.2 % -> 96.0 % (every segment flagged, all seven files corrected; 95.7 % with
-    // the defaults before the sixth session). The target is 98 %: not reached (see the
+    // Measured: 91.4 % -> 96.4 % (every segment flagged, all seven files corrected; 96.0 %
+    // before the bone-length prior was anchored to the seed length, 95.7 % with the defaults
+    // before the sixth session). The target is 98 %: not reached (see the
     // README, "Segments, corrections and resume"). With the earlier defaults: without the seed
     // appearance for bones hidden on a keyframe 94.7 %; without filling joints hidden in every
     // blended pass between the keyframes as well 94.2 %; 95.6 % before each joint's closed gaps
     // were filled while another stayed hidden.
-    assert!(after >= 0.958, "PCK@5 {before} -> {after}");
+    assert!(after >= 0.962, "PCK@5 {before} -> {after}");
 }
 
 /// Runs the binary with `args`, waiting for it.
