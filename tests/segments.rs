@@ -521,6 +521,27 @@ fn resume_refuses_another_clip_or_other_parameters() {
         folder_bytes(&run) == before,
         "a refused resume wrote nothing"
     );
+    // A run folder from an earlier build, whose parameters lacked one this build has (and whose
+    // config_blake3 was made without it): named, not "edited" (its manifest reads, with this
+    // build's default in the gap).
+    let manifest = run.join("run.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let older: String = text
+        .lines()
+        .filter(|l| !l.starts_with("length_anchor"))
+        .map(|l| match l.starts_with("config_blake3") {
+            true => format!("config_blake3 = \"{}\"\n", "0".repeat(64)),
+            false => format!("{l}\n"),
+        })
+        .collect();
+    assert_ne!(older, text);
+    std::fs::write(&manifest, older).unwrap();
+    let o = run_bin(&["resume", s(&run), "--segment", "1"]);
+    assert_exit(
+        &o,
+        2,
+        &["run.toml", "earlier build", "length_anchor", "new folder"],
+    );
 }
 
 #[test]

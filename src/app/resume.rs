@@ -86,6 +86,23 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
     Ok(Some(TrackSummary::new(run_dir.clone(), &session, &done)))
 }
 
+/// The tracking parameters this build has that the manifest at `path` does not list under
+/// `[params]` (they took this build's defaults when it was read): a run folder from an earlier
+/// build. Empty when all are there or the file does not read.
+fn params_missing(path: &Path) -> Vec<String> {
+    let listed = std::fs::read_to_string(path)
+        .ok()
+        .and_then(|text| text.parse::<toml::Table>().ok())
+        .and_then(|t| t.get("params").and_then(|p| p.as_table()).cloned());
+    let (Some(listed), Ok(all)) = (listed, toml::Table::try_from(TrackParams::default())) else {
+        return Vec::new();
+    };
+    all.keys()
+        .filter(|k| !listed.contains_key(*k))
+        .cloned()
+        .collect()
+}
+
 /// Checks that the run folder belongs to the clip, parameters and tool: returns the clip path.
 fn check_inputs(opts: &ResumeOptions, m: &Manifest, manifest_path: &Path) -> Result<PathBuf> {
     let err = |msg: String| Error::RunFolder {
@@ -95,11 +112,19 @@ fn check_inputs(opts: &ResumeOptions, m: &Manifest, manifest_path: &Path) -> Res
     let mut expected = m.clone();
     expected.version = env!("CARGO_PKG_VERSION").into();
     if m.config_hash() != m.config_blake3 {
-        return Err(err(
+        let missing = params_missing(manifest_path);
+        return Err(err(if missing.is_empty() {
             "the manifest was edited (its config_blake3 does not match its fields); track again \
              into a new folder"
-                .into(),
-        ));
+                .into()
+        } else {
+            format!(
+                "written by an earlier build of mocap2d {}, whose tracking parameters had no `{}`; \
+                 a resumed run must be tracked by the same build: track again into a new folder",
+                m.version,
+                missing.join("`, `")
+            )
+        }));
     }
     if expected.config_hash() != m.config_blake3 {
         return Err(err(format!(
