@@ -379,8 +379,17 @@ pub fn read_params(path: Option<&std::path::Path>) -> crate::Result<TrackParams>
             path.display()
         ))
     })?;
-    toml::from_str(&text)
-        .map_err(|e| crate::Error::Usage(format!("{}: {}", path.display(), e.message())))
+    let params: TrackParams = toml::from_str(&text)
+        .map_err(|e| crate::Error::Usage(format!("{}: {}", path.display(), e.message())))?;
+    if !(0.0..=1.0).contains(&params.length_anchor) {
+        return Err(crate::Error::Usage(format!(
+            "{}: length_anchor = {} is out of range; give a share from 0 (the predicted length) \
+             to 1 (the seed length, scaled with its body)",
+            path.display(),
+            params.length_anchor
+        )));
+    }
+    Ok(params)
 }
 
 #[cfg(test)]

@@ -383,6 +383,19 @@ fn params_file_is_recorded_and_checked() {
     ]);
     assert_user_error(&o, &["bad.toml", "search_max"]);
     assert!(!d.path("bad.mocap").exists());
+    let out_of_range = d.write("range.toml", "length_anchor = 1.5\n");
+    let o = d.run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&walk("joints.toml")),
+        "--params",
+        s(&out_of_range),
+        "--out",
+        "range.mocap",
+    ]);
+    assert_user_error(&o, &["range.toml", "length_anchor = 1.5", "from 0"]);
+    assert!(!d.path("range.mocap").exists());
 }
 
 /// Exit code 2 and one message on stderr, `mocap2d: ...`, holding every string of `needles`.
