@@ -370,32 +370,34 @@ fn params_file_is_recorded_and_checked() {
             "run.toml has no line {line:?}:\n{manifest}"
         );
     }
-    let bad = d.write("bad.toml", "search_max = 40.0\n");
-    let o = d.run(&[
-        "track",
-        s(&walk("clip.mp4")),
-        "--seeds",
-        s(&walk("joints.toml")),
-        "--params",
-        s(&bad),
-        "--out",
-        "bad.mocap",
-    ]);
-    assert_user_error(&o, &["bad.toml", "search_max"]);
-    assert!(!d.path("bad.mocap").exists());
-    let out_of_range = d.write("range.toml", "length_anchor = 1.5\n");
-    let o = d.run(&[
-        "track",
-        s(&walk("clip.mp4")),
-        "--seeds",
-        s(&walk("joints.toml")),
-        "--params",
-        s(&out_of_range),
-        "--out",
-        "range.mocap",
-    ]);
-    assert_user_error(&o, &["range.toml", "length_anchor = 1.5", "from 0"]);
-    assert!(!d.path("range.mocap").exists());
+    // A parameter file track refuses: one message naming the file and what is wrong in it, and
+    // no run folder left behind.
+    let refused = |name: &str, text: &str, needles: &[&str]| {
+        let file = d.write(name, text);
+        let out = format!("{name}.mocap");
+        let o = d.run(&[
+            "track",
+            s(&walk("clip.mp4")),
+            "--seeds",
+            s(&walk("joints.toml")),
+            "--params",
+            s(&file),
+            "--out",
+            &out,
+        ]);
+        assert_user_error(&o, needles);
+        assert!(!d.path(&out).exists());
+    };
+    refused(
+        "bad.toml",
+        "search_max = 40.0\n",
+        &["bad.toml", "search_max"],
+    );
+    refused(
+        "range.toml",
+        "length_anchor = 1.5\n",
+        &["range.toml", "length_anchor = 1.5", "from 0"],
+    );
 }
 
 /// Exit code 2 and one message on stderr, `mocap2d: ...`, holding every string of `needles`.
