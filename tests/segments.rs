@@ -536,11 +536,16 @@ fn resume_refuses_another_clip_or_other_parameters() {
         .collect();
     assert_ne!(older, text);
     std::fs::write(&manifest, older).unwrap();
+    let before = folder_bytes(&run);
     let o = run_bin(&["resume", s(&run), "--segment", "1"]);
     assert_exit(
         &o,
         2,
         &["run.toml", "earlier build", "length_anchor", "new folder"],
+    );
+    assert!(
+        folder_bytes(&run) == before,
+        "a refused resume wrote nothing"
     );
 }
 
