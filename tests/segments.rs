@@ -266,14 +266,16 @@ fn corrections_of_flagged_segments_lift_accuracy() {
         assert!(after >= 0.945, "seed {seed}: PCK@5 {before} -> {after}");
         sum += after;
     }
-    // Measured (all six segments flagged, their seven files corrected): 91.7 -> 95.1, 94.7 ->
-    // 96.6, 86.3 -> 96.6, 92.0 -> 96.0, 89.0 -> 95.8 %, mean 96.0 %. Before the bone-length prior
+    // Measured (all six segments flagged, their seven files corrected): 91.7 -> 95.4, 94.7 ->
+    // 96.8, 86.3 -> 96.8, 92.0 -> 96.5, 89.0 -> 95.9 %, mean 96.3 %. Before disputed `low`
+    // winners of the blend were left to the gap filling: 95.1 / 96.6 / 96.6 / 96.0 / 95.8 %, mean
+    // 96.0 % (fails the bound). Before the bone-length prior
     // was anchored to the seed length: 95.8 / 96.8 / 96.0 / 95.4 / 95.8 %, mean 96.0 %. Seed 1
     // with the defaults before the sixth session (appearance learnt half as fast): 83.6 ->
     // 96.5 %; without the seed appearance for bones hidden on a keyframe: 96.0 %; without filling
     // joints hidden in every blended pass between the keyframes as well: 95.4 % (both with the
     // earlier defaults).
-    assert!(sum / 5.0 >= 0.955, "mean PCK@5 {}", sum / 5.0);
+    assert!(sum / 5.0 >= 0.961, "mean PCK@5 {}", sum / 5.0);
 }
 
 /// What a user does first: correct only the worst flagged segment (its file and the next one,
@@ -300,8 +302,9 @@ fn correcting_only_the_worst_segment_makes_the_rest_better() {
         before_sum += before;
         after_sum += after;
     }
-    // Measured: 90.1 -> 88.6, 93.6 -> 94.1, 82.3 -> 90.3, 89.5 -> 92.1, 86.8 -> 90.4 %; means
-    // 88.5 -> 91.1 %. Before the bone-length prior was anchored to the seed length: 87.3 ->
+    // Measured: 90.1 -> 88.7, 93.6 -> 94.3, 82.3 -> 90.3, 89.5 -> 92.4, 86.8 -> 90.4 %; means
+    // 88.5 -> 91.2 % (91.1 % before disputed `low` winners of the blend were left to the gap
+    // filling: 88.6, 94.1, 90.3, 92.1, 90.4 %). Before the bone-length prior was anchored to the seed length: 87.3 ->
     // 89.6, 93.1 -> 91.7, 75.5 -> 90.7, 89.3 -> 89.6, 92.4 -> 86.1 %; means 87.5 -> 89.5 %.
     // Carrying on the tracker built on the correction (until the fifth session; before that,
     // resume failed at the segment after the corrections): seed 1 81.2 % (earlier defaults).
@@ -334,14 +337,15 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);
-    // Measured: 91.4 % -> 96.4 % (every segment flagged, all seven files corrected; 96.0 %
-    // before the bone-length prior was anchored to the seed length, 95.7 % with the defaults
+    // Measured: 91.4 % -> 96.7 % (every segment flagged, all seven files corrected; 96.4 %
+    // before disputed `low` winners of the blend were left to the gap filling, 96.0 % before the
+    // bone-length prior was anchored to the seed length, 95.7 % with the defaults
     // before the sixth session). The target is 98 %: not reached (see the
     // README, "Segments, corrections and resume"). With the earlier defaults: without the seed
     // appearance for bones hidden on a keyframe 94.7 %; without filling joints hidden in every
     // blended pass between the keyframes as well 94.2 %; 95.6 % before each joint's closed gaps
     // were filled while another stayed hidden.
-    assert!(after >= 0.962, "PCK@5 {before} -> {after}");
+    assert!(after >= 0.965, "PCK@5 {before} -> {after}");
 }
 
 /// Runs the binary with `args`, waiting for it.
