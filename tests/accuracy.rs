@@ -125,6 +125,27 @@ fn a_short_flat_bone_keeps_its_length() {
     assert!(pck5 >= 0.95, "toe_r PCK@5 {pck5}");
 }
 
+/// A grey shoe on a grey floor (noisy seed 8): its colour is within the clip's noise threshold
+/// of the floor's, so most of its seed pixels look like the plate. That is not a body the plate
+/// holds (the rule for flies that rest while the plate is sampled): the bone's axis counts as
+/// on the plate only by a tighter test, so the shoe's samples keep their weight and the plate
+/// is trusted around it.
+#[test]
+fn a_shoe_the_colour_of_the_floor_is_tracked() {
+    let segment_len = TrackOptions::new("", "").segment_len;
+    let ((_, pck5), dir) = synth_run_with(Scenario::Noisy, None, segment_len, 8);
+    let lines = eval(&dir.path().join("run"), &dir.path().join("gt.csv"), true).unwrap();
+    let toe = lines.iter().find(|l| l.starts_with("toe_r:")).unwrap();
+    println!("{toe}");
+    let (median, toe_pck5) = parse_line(toe);
+    // Measured: toe_r median 1.06 px, PCK@5 100 %; the clip 97.5 %. With the samples' own test
+    // for the axis (until the eighth session): toe_r 27.9 px, 10.0 % (scored `ok`), the clip
+    // 91.1 %.
+    assert!(median <= 2.0, "toe_r median {median} px");
+    assert!(toe_pck5 >= 0.95, "toe_r PCK@5 {toe_pck5}");
+    assert!(pck5 >= 0.96, "PCK@5 {pck5}");
+}
+
 #[test]
 fn noise_flicker_and_compression_are_tracked() {
     // Measured: median 0.35 px, PCK@5 97.6 % (issue target: >= 95 %, <= 1.5 px); 98.6 % before

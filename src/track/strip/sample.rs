@@ -11,9 +11,9 @@ impl Strip {
     /// `Shape::Patch`, the rectangle `2·ext_a × 2·half_width` around `extent.a`, `child ==
     /// parent`). A pixel is kept when, for a bone, no extent of `others` is nearer to it.
     /// `background(x, y)` says whether the seed pixel looks like the clean plate: such samples
-    /// get no weight, unless most of the bone's axis looks like the plate (then the plate is
-    /// wrong there, and no sample is taken for background). Returns `None` when fewer than 8
-    /// samples remain.
+    /// get no weight, unless most of the bone's axis looks like the plate by the tighter test
+    /// `axis_on_plate(x, y)` as well (then the plate is wrong there, and no sample is taken for
+    /// background). Returns `None` when fewer than 8 samples remain.
     pub fn sample(
         frame: &Pyramid,
         shape: Shape,
@@ -22,6 +22,7 @@ impl Strip {
         spec: &StripSpec,
         others: &[Extent],
         background: &dyn Fn(f32, f32) -> bool,
+        axis_on_plate: &dyn Fn(f32, f32) -> bool,
     ) -> Option<Strip> {
         let (_, len) = extent.axis();
         let mut strip = Strip {
@@ -107,12 +108,17 @@ impl Strip {
         strip.template = strip.anchor.clone();
         // The bone's own axis must be foreground: where the plate says it is background, the
         // plate holds the character (it hardly moved over the sampled frames), and is not
-        // trusted along this strip.
+        // trusted along this strip. Judged by a tighter test than the samples' own: a limb
+        // whose colour is merely near the floor's (a grey shoe on a grey floor, within the
+        // noise threshold) is not a limb the plate holds.
         let core: Vec<bool> = strip
             .samples
             .iter()
             .filter(|s| s.v.abs() <= 2.0 && s.e == 0.0)
-            .map(|s| s.background)
+            .map(|s| {
+                let (x, y) = place.at(s.t, s.e, s.v);
+                s.background && axis_on_plate(x, y)
+            })
             .collect();
         if core.len() >= 4 && core.iter().filter(|&&b| b).count() * 2 > core.len() {
             for s in &mut strip.samples {

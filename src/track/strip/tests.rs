@@ -77,6 +77,7 @@ fn bone(img: &Pyramid, p: Point, c: Point, ext: f32) -> Strip {
         &spec(),
         &[],
         &bg,
+        &bg,
     )
     .unwrap()
 }
