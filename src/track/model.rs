@@ -10,16 +10,6 @@ use crate::geom::{Point, Vector};
 use crate::seed::Seeds;
 use image::RgbImage;
 
-/// A bone's axis counts as on the clean plate (the plate holds a character that rested while
-/// it was sampled, see [`Strip::sample`]) only where its seed pixels are within this share of
-/// the foreground threshold of the plate. Measured (PCK@5, 640x360, the five scenarios × seeds
-/// 1–30): the same test as the samples' (1.0) 97.6 %, noisy 96.7 %; 0.75 97.6 %, noisy 96.9 %,
-/// four clips changed (noisy seed 8, whose grey shoe on a grey floor was lost and scored `ok`,
-/// 91.1 → 97.5 %; seeds 21 and 24 +0.3 and +0.2; seed 9 97.0 → 96.2 %); 0.5 noisy 96.8 % (seed 21
-/// 91.2 → 87.5 %). `long` seeds 1–5 and the flies, whose resting bodies this rule is for,
-/// unchanged.
-const AXIS_PLATE_SHARE: f32 = 0.75;
-
 /// Which end of a strip a joint is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum End {
@@ -101,24 +91,24 @@ impl Model {
             .into_iter()
             .filter(|&(p, c)| (centres[c] - centres[p]).norm() >= 2.0)
             .collect();
-        // Whether the seed pixel nearest `(x, y)` is within `share` of the foreground threshold
-        // of the plate.
-        let near_plate = |share: f32| {
-            move |x: f32, y: f32| match background {
-                Some(bg) => {
-                    let (xi, yi) = (x.round(), y.round());
-                    xi >= 0.0
-                        && yi >= 0.0
-                        && (xi as u32) < seed_frame.width()
-                        && (yi as u32) < seed_frame.height()
-                        && bg.distance(seed_frame, xi as u32, yi as u32) as f32
-                            <= share * bg.threshold as f32
+        // How far the seed pixel nearest `(x, y)` is from the plate, as a share of the
+        // foreground threshold (infinite without a plate or outside the frame).
+        let plate_share = |x: f32, y: f32| match background {
+            Some(bg) => {
+                let (xi, yi) = (x.round(), y.round());
+                if xi >= 0.0
+                    && yi >= 0.0
+                    && (xi as u32) < seed_frame.width()
+                    && (yi as u32) < seed_frame.height()
+                {
+                    bg.distance(seed_frame, xi as u32, yi as u32) as f32 / bg.threshold as f32
+                } else {
+                    f32::INFINITY
                 }
-                None => false,
             }
+            None => f32::INFINITY,
         };
-        let looks_background = near_plate(1.0);
-        let axis_on_plate = near_plate(AXIS_PLATE_SHARE);
+        let looks_background = |x: f32, y: f32| plate_share(x, y) <= 1.0;
         let extents: Vec<Extent> = bones
             .iter()
             .map(|&(p, c)| {
@@ -169,8 +159,7 @@ impl Model {
                 extents[bi],
                 &spec,
                 &others,
-                &looks_background,
-                &axis_on_plate,
+                &plate_share,
             );
             if let Some(s) = s {
                 strip_of[c] = Some(strips.len());
@@ -199,16 +188,7 @@ impl Model {
                 ext_b: 0.5 * (b.h as f32 - 1.0),
                 half_width: 0.5 * (b.w as f32 - 1.0),
             };
-            let s = Strip::sample(
-                &img,
-                Shape::Patch,
-                (j, j),
-                extent,
-                &spec,
-                &[],
-                &looks_background,
-                &axis_on_plate,
-            );
+            let s = Strip::sample(&img, Shape::Patch, (j, j), extent, &spec, &[], &plate_share);
             if let Some(s) = s {
                 strip_of[j] = Some(strips.len());
                 strips.push(s);

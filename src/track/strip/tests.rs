@@ -65,8 +65,8 @@ fn view<'a>(pyr: &'a Pyramid, k: usize) -> View<'a> {
 fn bone(img: &Pyramid, p: Point, c: Point, ext: f32) -> Strip {
     // Background: within 30 levels (L1) of the backdrop colour, as the plate test does.
     let bg = |x: f32, y: f32| {
-        img.level(0).bilinear(x, y).is_some_and(|c| {
-            (c[0] - 90.0).abs() + (c[1] - 110.0).abs() + (c[2] - 130.0).abs() < 30.0
+        img.level(0).bilinear(x, y).map_or(f32::INFINITY, |c| {
+            ((c[0] - 90.0).abs() + (c[1] - 110.0).abs() + (c[2] - 130.0).abs()) / 30.0
         })
     };
     Strip::sample(
@@ -76,7 +76,6 @@ fn bone(img: &Pyramid, p: Point, c: Point, ext: f32) -> Strip {
         extent(p, c, ext),
         &spec(),
         &[],
-        &bg,
         &bg,
     )
     .unwrap()
