@@ -48,6 +48,15 @@ fn synth_run_with(
     (parse_line(line), dir)
 }
 
+/// Median and PCK@5 of one joint of a run made by [`synth_run_with`] (its `eval` line, printed).
+fn joint_figures(dir: &tempfile::TempDir, joint: &str) -> (f32, f32) {
+    let lines = eval(&dir.path().join("run"), &dir.path().join("gt.csv"), true).unwrap();
+    let prefix = format!("{joint}:");
+    let line = lines.iter().find(|l| l.starts_with(&prefix)).unwrap();
+    println!("{line}");
+    parse_line(line)
+}
+
 /// Pulls median and PCK@5 out of an `eval` line.
 fn parse_line(line: &str) -> (f32, f32) {
     let field = |key: &str, end: &str| -> f32 {
@@ -114,10 +123,7 @@ fn squash_and_stretch_is_tracked() {
 fn a_short_flat_bone_keeps_its_length() {
     let segment_len = TrackOptions::new("", "").segment_len;
     let (_, dir) = synth_run_with(Scenario::Fast, None, segment_len, 27);
-    let lines = eval(&dir.path().join("run"), &dir.path().join("gt.csv"), true).unwrap();
-    let toe = lines.iter().find(|l| l.starts_with("toe_r:")).unwrap();
-    println!("{toe}");
-    let (median, pck5) = parse_line(toe);
+    let (median, pck5) = joint_figures(&dir, "toe_r");
     // Measured: median 0.28 px, PCK@5 99.2 %. Centred on the predicted length
     // (`length_anchor = 0`, the behaviour until the seventh session): 5.1 px, 49.2 %, the toe
     // up to 12 px short of the shoe's tip.
@@ -134,10 +140,7 @@ fn a_short_flat_bone_keeps_its_length() {
 fn a_shoe_the_colour_of_the_floor_is_tracked() {
     let segment_len = TrackOptions::new("", "").segment_len;
     let ((_, pck5), dir) = synth_run_with(Scenario::Noisy, None, segment_len, 8);
-    let lines = eval(&dir.path().join("run"), &dir.path().join("gt.csv"), true).unwrap();
-    let toe = lines.iter().find(|l| l.starts_with("toe_r:")).unwrap();
-    println!("{toe}");
-    let (median, toe_pck5) = parse_line(toe);
+    let (median, toe_pck5) = joint_figures(&dir, "toe_r");
     // Measured: toe_r median 1.06 px, PCK@5 100 %; the clip 97.5 %. With the samples' own test
     // for the axis (until the eighth session): toe_r 27.9 px, 10.0 % (scored `ok`), the clip
     // 91.1 %.

@@ -76,12 +76,15 @@ pub fn blend(passes: &[Vec<Vec<JointEstimate>>]) -> Vec<Vec<JointEstimate>> {
                         })
                         .expect("at least one pass");
                     let (mut pos, mut angle, mut total) = (c[best].pos.coords * 0.0, 0.0, 0.0);
+                    let mut backers = 0;
                     for b in (0..c.len()).filter(|&b| agree(best, b)) {
                         pos += c[b].pos.coords * w[b];
                         angle += turns_near(c[best].angle_rad, c[b].angle_rad) * w[b];
                         total += w[b];
+                        backers += 1;
                     }
-                    let alone = (0..c.len()).filter(|&b| agree(best, b)).count() == 1;
+                    // `best` agrees with itself: alone when no other pass backs it.
+                    let alone = backers == 1;
                     let seen = c.iter().filter(|e| e.status.seen()).count();
                     let disputed = alone && seen >= 2 && c[best].status != Status::Ok;
                     JointEstimate {
