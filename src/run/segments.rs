@@ -347,24 +347,29 @@ pub fn last_angles(run_dir: &Path, k: u64) -> Result<Vec<f32>> {
         .collect())
 }
 
-/// Joins the rows of segments `0..count` into `tracks.csv` (one header), atomically.
+/// Joins the rows of segments `0..count` into `tracks.csv` (one header), atomically, copying
+/// them through a buffer rather than holding them (a long clip's rows are tens of MB).
 pub fn assemble_tracks(run_dir: &Path, count: u64) -> Result<()> {
+    use std::io::{BufRead, Write};
     let out = run_dir.join("tracks.csv");
+    // Every part is checked before anything is written (and opened again in turn below, so
+    // that a clip of thousands of segments does not hold thousands of files open).
     let mut parts = Vec::with_capacity(count as usize);
     for k in 0..count {
         let p = rows_path(run_dir, k);
-        let text = std::fs::read_to_string(&p).map_err(|e| Error::RunFolder {
+        std::fs::File::open(&p).map_err(|e| Error::RunFolder {
             path: p.clone(),
             msg: format!("cannot read the rows of segment {k} ({e}); run `mocap2d resume` again"),
         })?;
-        parts.push(text);
+        parts.push(p);
     }
     crate::atomic::write_with(&out, |w| {
-        use std::io::Write;
         writeln!(w, "{HEADER}")?;
-        for text in &parts {
-            let body = text.split_once('\n').map_or("", |(_, b)| b);
-            w.write_all(body.as_bytes())?;
+        for p in &parts {
+            let mut part = std::io::BufReader::new(std::fs::File::open(p)?);
+            let mut header = Vec::new();
+            part.read_until(b'\n', &mut header)?;
+            std::io::copy(&mut part, w)?;
         }
         Ok(())
     })
