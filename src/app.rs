@@ -436,20 +436,16 @@ fn prepare_new_run(
 impl TrackSummary {
     /// The summary of a finished session.
     fn new(run_dir: PathBuf, session: &Session, done: &Finished) -> TrackSummary {
-        let mut counts = std::collections::BTreeMap::<&'static str, u64>::new();
-        for row in &done.table.status {
-            for st in row {
-                *counts.entry(st.as_str()).or_default() += 1;
-            }
-        }
         TrackSummary {
             run_dir,
             frames: done.frames,
-            tracked_frames: done.table.frames.len() as u64,
+            tracked_frames: done.tally.frames,
             joints: session.names.len(),
-            status_counts: counts
-                .into_iter()
-                .map(|(k, v)| (k.to_string(), v))
+            status_counts: done
+                .tally
+                .status
+                .iter()
+                .map(|(k, &v)| (k.to_string(), v))
                 .collect(),
             segments: session.manifest.tracked_segments,
             report: done.report.summary(),

@@ -45,8 +45,7 @@
 use crate::background::Background;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::run::evidence::Table;
-use crate::run::report::Report;
+use crate::run::report::{Report, Tally};
 use crate::run::segments::{self, file_text, Plan, Start};
 use crate::run::{Manifest, SegmentRecord};
 use crate::seed::Seeds;
@@ -80,7 +79,8 @@ pub struct Session {
 pub struct Finished {
     /// Frames the clip has.
     pub frames: u64,
-    pub table: Table,
+    /// What `tracks.csv` holds (frames, statuses).
+    pub tally: Tally,
     pub report: Report,
 }
 
@@ -600,7 +600,7 @@ impl Session {
     /// and marks the manifest complete with the clip's `frames`.
     fn finish(&mut self, count: u64, frames: u64) -> Result<Finished> {
         segments::assemble_tracks(&self.run_dir, count)?;
-        let (table, report) = self.report()?;
+        let (tally, report) = self.report()?;
         crate::atomic::write(
             &self.run_dir.join("report.md"),
             report.to_markdown().as_bytes(),
@@ -610,13 +610,13 @@ impl Session {
         self.manifest.write(&self.run_dir)?;
         Ok(Finished {
             frames,
-            table,
+            tally,
             report,
         })
     }
 
     /// The report on the run's `tracks.csv`.
-    pub fn report(&self) -> Result<(Table, Report)> {
+    pub fn report(&self) -> Result<(Tally, Report)> {
         crate::run::report::for_run(&self.run_dir, &self.manifest, &self.base)
     }
 }

@@ -23,6 +23,7 @@ use crate::run::segments::parse_status;
 use crate::run::tracks::TrackRow;
 use crate::skeleton::Skeleton;
 use crate::track::Status;
+use std::collections::VecDeque;
 
 /// Kinds of evidence, as bits of a joint-frame's doubt mask.
 pub const LOW: u8 = 1;
@@ -119,6 +120,7 @@ pub struct Evidence {
 
 /// The evidence on every joint of every frame of `t`. `sides` is each joint's rectangle side
 /// (px), `seed_len` each bone's length on the seed frame (px, by child joint; roots unused).
+/// The whole table at once; [`Stream`] gives the same frame by frame.
 pub fn evidence(
     t: &Table,
     sk: &Skeleton,
@@ -126,54 +128,123 @@ pub fn evidence(
     seed_len: &[f32],
     th: &Thresholds,
 ) -> Evidence {
-    let n = t.frames.len();
-    let nj = sk.len();
-    let mut m = vec![vec![0u8; nj]; n];
-    let mut w = vec![vec![0f32; nj]; n];
-    let outside = |v: f32, (lo, hi): (f32, f32)| v < lo || v > hi;
-    for i in 0..n {
+    let mut stream = Stream::new(sk, sides, seed_len, th);
+    let mut judged = Vec::with_capacity(t.frames.len());
+    for i in 0..t.frames.len() {
+        judged.extend(stream.push(t.frames[i], &t.pos[i], &t.score[i], &t.status[i]));
+    }
+    judged.extend(stream.finish());
+    let (mask, weight) = judged.into_iter().map(|j| (j.mask, j.weight)).unzip();
+    Evidence { mask, weight }
+}
+
+/// One frame's evidence, per joint (see [`Evidence`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Judged {
+    pub frame: u64,
+    pub mask: Vec<u8>,
+    pub weight: Vec<f32>,
+}
+
+/// [`evidence`] frame by frame, holding only the frames it looks back and ahead over (the
+/// last [`Thresholds::bone_window`] bone lengths, and twice [`Thresholds::spread`] frames
+/// waiting to be spread to), so that a report on a long clip takes no more memory than on a
+/// short one. A frame comes out [`Thresholds::spread`] frames after it goes in; the last ones
+/// at [`Stream::finish`].
+pub struct Stream<'a> {
+    sk: &'a Skeleton,
+    sides: &'a [f32],
+    seed_len: &'a [f32],
+    th: &'a Thresholds,
+    /// Positions on the last two frames pushed, the newest last.
+    recent: VecDeque<Vec<Point>>,
+    /// Each joint's bone length (0 for roots) on the last `bone_window` frames, newest last.
+    lens: VecDeque<Vec<f32>>,
+    /// Frames judged, with which of their joints showed evidence themselves; the oldest ones
+    /// are already out and are kept only to spread to the frames after them.
+    held: VecDeque<(Judged, Vec<bool>)>,
+    /// Frames pushed, and frames handed out.
+    pushed: usize,
+    out: usize,
+}
+
+impl<'a> Stream<'a> {
+    /// A stream over a clip whose joints are `sk`'s (see [`evidence`] for the rest).
+    pub fn new(
+        sk: &'a Skeleton,
+        sides: &'a [f32],
+        seed_len: &'a [f32],
+        th: &'a Thresholds,
+    ) -> Self {
+        Stream {
+            sk,
+            sides,
+            seed_len,
+            th,
+            recent: VecDeque::new(),
+            lens: VecDeque::new(),
+            held: VecDeque::new(),
+            pushed: 0,
+            out: 0,
+        }
+    }
+
+    /// Judges the next frame (joints in seed-file order); returns the frame now final, if any.
+    pub fn push(
+        &mut self,
+        frame: u64,
+        pos: &[Point],
+        score: &[f32],
+        status: &[Status],
+    ) -> Option<Judged> {
+        let th = self.th;
+        let nj = self.sk.len();
+        let outside = |v: f32, (lo, hi): (f32, f32)| v < lo || v > hi;
+        let mut mask = vec![0u8; nj];
+        let mut weight = vec![0f32; nj];
+        let mut len_now = vec![0f32; nj];
         for j in 0..nj {
-            let st = t.status[i][j];
+            let st = status[j];
             let (mut b, mut wt) = (0u8, 0f32);
             let mut add = |bit: u8, weight: f32| {
                 b |= bit;
                 wt = wt.max(weight);
             };
-            if st == Status::Low || (st.seen() && t.score[i][j] < th.score_min) {
+            if st == Status::Low || (st.seen() && score[j] < th.score_min) {
                 add(LOW, 0.08);
             }
             if !st.seen() {
                 add(HIDDEN, 0.35);
             }
-            if i >= 1 && (t.pos[i][j] - t.pos[i - 1][j]).norm() > th.jump * sides[j] {
+            let back = |k: usize| &self.recent[self.recent.len() - k];
+            if !self.recent.is_empty() && (pos[j] - back(1)[j]).norm() > th.jump * self.sides[j] {
                 add(JUMP, 0.2);
             }
-            if i >= 2 {
-                let pred = t.pos[i - 1][j] + (t.pos[i - 1][j] - t.pos[i - 2][j]);
-                let r = (t.pos[i][j] - pred).norm() / (th.residual * sides[j]);
+            if self.recent.len() >= 2 {
+                let pred = back(1)[j] + (back(1)[j] - back(2)[j]);
+                let r = (pos[j] - pred).norm() / (th.residual * self.sides[j]);
                 if r > 2.0 {
                     add(RESIDUAL, 0.45);
                 } else if r > 1.0 {
                     add(RESIDUAL, 0.25);
                 }
             }
-            if let Some(p) = sk.parents[j] {
-                let len = |k: usize| (t.pos[k][j] - t.pos[k][p]).norm();
-                let l = len(i);
-                if seed_len[j] > 0.0 {
-                    let ratio = l / seed_len[j];
+            if let Some(p) = self.sk.parents[j] {
+                let l = (pos[j] - pos[p]).norm();
+                len_now[j] = l;
+                if self.seed_len[j] > 0.0 {
+                    let ratio = l / self.seed_len[j];
                     if outside(ratio, th.bone_range_wide) {
                         add(BONE, 0.46);
                     } else if outside(ratio, th.bone_range) {
                         add(BONE, 0.33);
                     }
                 }
-                if i >= 1 {
-                    let from = i.saturating_sub(th.bone_window);
+                if !self.lens.is_empty() {
                     let (mut a, mut z) = (f32::MAX, 0f32);
-                    for k in from..i {
-                        a = a.min(len(k));
-                        z = z.max(len(k));
+                    for ls in &self.lens {
+                        a = a.min(ls[j]);
+                        z = z.max(ls[j]);
                     }
                     let tol = th.bone_tolerance;
                     if l < a * (1.0 - tol) - 1.0 || l > z * (1.0 + tol) + 1.0 {
@@ -181,35 +252,65 @@ pub fn evidence(
                     }
                 }
             }
-            m[i][j] = b;
-            w[i][j] = wt;
+            mask[j] = b;
+            weight[j] = wt;
         }
+        self.recent.push_back(pos.to_vec());
+        if self.recent.len() > 2 {
+            self.recent.pop_front();
+        }
+        self.lens.push_back(len_now);
+        if self.lens.len() > th.bone_window {
+            self.lens.pop_front();
+        }
+        let raw = mask.iter().map(|&b| b != 0).collect();
+        self.held.push_back((
+            Judged {
+                frame,
+                mask,
+                weight,
+            },
+            raw,
+        ));
+        self.pushed += 1;
+        let sp = th.spread as usize;
+        (self.pushed > sp).then(|| self.release())
     }
-    // Spread, for the listing.
-    let raw: Vec<Vec<bool>> = m
-        .iter()
-        .map(|r| r.iter().map(|&b| b != 0).collect())
-        .collect();
-    let sp = th.spread as usize;
-    for j in 0..nj {
-        let mut last: Option<usize> = None;
-        for i in 0..n {
-            if raw[i][j] {
-                last = Some(i);
-            }
-            if last.is_some_and(|l| i - l <= sp) && m[i][j] == 0 {
-                m[i][j] = NEAR;
-            }
+
+    /// The frames still held, now final (the clip has ended).
+    pub fn finish(&mut self) -> Vec<Judged> {
+        let mut rest = Vec::new();
+        while self.out < self.pushed {
+            rest.push(self.release());
         }
-        let mut next: Option<usize> = None;
-        for i in (0..n).rev() {
-            if raw[i][j] {
-                next = Some(i);
-            }
-            if next.is_some_and(|l| l - i <= sp) && m[i][j] == 0 {
-                m[i][j] = NEAR;
-            }
-        }
+        rest
     }
-    Evidence { mask: m, weight: w }
+
+    /// Frames held now (for tests: at most twice [`Thresholds::spread`] and one).
+    pub fn held_frames(&self) -> usize {
+        self.held.len()
+    }
+
+    /// Hands out the next frame: a joint with no evidence of its own there is [`NEAR`] when
+    /// some frame within [`Thresholds::spread`] of it, either side, has (of those pushed).
+    fn release(&mut self) -> Judged {
+        let sp = self.th.spread as usize;
+        // `held[0]` is frame `first` (counted from the first pushed).
+        let first = self.pushed - self.held.len();
+        let at = self.out - first;
+        let lo = at.saturating_sub(sp);
+        let hi = (at + sp).min(self.held.len() - 1);
+        let mut judged = self.held[at].0.clone();
+        for (j, b) in judged.mask.iter_mut().enumerate() {
+            if *b == 0 && (lo..=hi).any(|k| self.held[k].1[j]) {
+                *b = NEAR;
+            }
+        }
+        self.out += 1;
+        // Frames more than `spread` before the next one to go out are no longer looked at.
+        while self.pushed - self.held.len() + sp < self.out {
+            self.held.pop_front();
+        }
+        judged
+    }
 }

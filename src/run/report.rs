@@ -12,10 +12,10 @@
 
 use crate::error::Result;
 use crate::run::evidence::{
-    evidence, Evidence, Table, Thresholds, BONE, HIDDEN, JUMP, LOW, RESIDUAL,
+    Evidence, Stream, Table, Thresholds, BONE, HIDDEN, JUMP, LOW, RESIDUAL,
 };
 use crate::run::segments::{self, Plan};
-use crate::run::tracks::read_tracks;
+use crate::run::tracks::for_each_frame;
 use crate::run::Manifest;
 use crate::seed::Seeds;
 use std::fmt::Write as _;
@@ -68,7 +68,8 @@ pub struct Report {
 }
 
 impl Report {
-    /// Builds the report from the evidence `ev` (see [`evidence`]) over table `t`, cut by
+    /// Builds the report from the evidence `ev` (see [`crate::run::evidence::evidence`]) over
+    /// table `t`, cut by
     /// `plan`; `corrected[k]` says segment file k is a correction; `files` counts them.
     pub fn build(
         t: &Table,
@@ -79,51 +80,11 @@ impl Report {
         files: u64,
         th: &Thresholds,
     ) -> Report {
-        let mut segments: Vec<SegmentNeed> = Vec::new();
+        let mut b = Builder::new(names, plan, corrected);
         for (i, &f) in t.frames.iter().enumerate() {
-            let k = plan.segment_of(f);
-            if segments.last().is_none_or(|s| s.index != k) {
-                segments.push(SegmentNeed {
-                    index: k,
-                    first: f,
-                    last: f,
-                    corrected: corrected.get(k as usize).copied().unwrap_or(false),
-                    need: 0.0,
-                    flagged: false,
-                    joints: names
-                        .iter()
-                        .map(|n| JointDoubt {
-                            joint: n.clone(),
-                            first: 0,
-                            last: 0,
-                            frames: 0,
-                            kinds: 0,
-                        })
-                        .collect(),
-                });
-            }
-            let s = segments.last_mut().expect("pushed above");
-            s.last = f;
-            s.need += ev.weight[i].iter().sum::<f32>();
-            for (jd, &b) in s.joints.iter_mut().zip(&ev.mask[i]) {
-                if b != 0 {
-                    if jd.frames == 0 {
-                        jd.first = f;
-                    }
-                    jd.last = f;
-                    jd.frames += 1;
-                    jd.kinds |= b;
-                }
-            }
+            b.push(f, &ev.mask[i], &ev.weight[i]);
         }
-        for s in &mut segments {
-            let cells = (s.last - s.first + 1) * names.len() as u64;
-            s.flagged = s.need >= th.min_need.max(th.min_share * cells as f32);
-            s.joints.retain(|j| j.frames > 0);
-            s.joints
-                .sort_by(|a, b| b.frames.cmp(&a.frames).then(a.first.cmp(&b.first)));
-        }
-        Report { segments, files }
+        b.finish(files, th)
     }
 
     /// Flagged segments, most needy first (ties: earlier first).
@@ -291,10 +252,92 @@ impl Report {
     }
 }
 
-/// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`.
-pub fn for_run(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Table, Report)> {
-    let rows = read_tracks(&run_dir.join("tracks.csv"))?;
-    let table = Table::from_rows(&rows, base.joints.len());
+/// [`Report::build`] frame by frame: the frames' evidence in order, then [`Builder::finish`].
+pub struct Builder<'a> {
+    names: &'a [String],
+    plan: &'a Plan,
+    corrected: &'a [bool],
+    segments: Vec<SegmentNeed>,
+}
+
+impl<'a> Builder<'a> {
+    /// A report on joints `names`, cut by `plan`; `corrected[k]` says segment file k is a
+    /// correction.
+    pub fn new(names: &'a [String], plan: &'a Plan, corrected: &'a [bool]) -> Self {
+        Builder {
+            names,
+            plan,
+            corrected,
+            segments: Vec::new(),
+        }
+    }
+
+    /// Adds frame `f`'s evidence bits and weights, one per joint.
+    pub fn push(&mut self, f: u64, mask: &[u8], weight: &[f32]) {
+        let k = self.plan.segment_of(f);
+        if self.segments.last().is_none_or(|s| s.index != k) {
+            self.segments.push(SegmentNeed {
+                index: k,
+                first: f,
+                last: f,
+                corrected: self.corrected.get(k as usize).copied().unwrap_or(false),
+                need: 0.0,
+                flagged: false,
+                joints: self
+                    .names
+                    .iter()
+                    .map(|n| JointDoubt {
+                        joint: n.clone(),
+                        first: 0,
+                        last: 0,
+                        frames: 0,
+                        kinds: 0,
+                    })
+                    .collect(),
+            });
+        }
+        let s = self.segments.last_mut().expect("pushed above");
+        s.last = f;
+        s.need += weight.iter().sum::<f32>();
+        for (jd, &b) in s.joints.iter_mut().zip(mask) {
+            if b != 0 {
+                if jd.frames == 0 {
+                    jd.first = f;
+                }
+                jd.last = f;
+                jd.frames += 1;
+                jd.kinds |= b;
+            }
+        }
+    }
+
+    /// The report; `files` counts the run's segment files.
+    pub fn finish(mut self, files: u64, th: &Thresholds) -> Report {
+        for s in &mut self.segments {
+            let cells = (s.last - s.first + 1) * self.names.len() as u64;
+            s.flagged = s.need >= th.min_need.max(th.min_share * cells as f32);
+            s.joints.retain(|j| j.frames > 0);
+            s.joints
+                .sort_by(|a, b| b.frames.cmp(&a.frames).then(a.first.cmp(&b.first)));
+        }
+        Report {
+            segments: self.segments,
+            files,
+        }
+    }
+}
+
+/// What a run's `tracks.csv` holds, counted while the report reads it: frames, and joint-frames
+/// per status word (for the summary `track` prints).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tally {
+    pub frames: u64,
+    pub status: std::collections::BTreeMap<&'static str, u64>,
+}
+
+/// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`. The
+/// file is read a frame at a time (see [`Stream`]): memory does not grow with the clip.
+pub fn for_run(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Tally, Report)> {
     let plan = Plan {
         seed_frame: manifest.seed_frame,
         len: manifest.segment_len,
@@ -311,17 +354,35 @@ pub fn for_run(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Tab
         corrected.push(h.is_some_and(|h| !rec.written.contains(&h)));
     }
     let th = Thresholds::default();
-    let ev = evidence(&table, sk, &sides, &seed_len, &th);
     let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
+    let mut stream = Stream::new(sk, &sides, &seed_len, &th);
+    let mut builder = Builder::new(&names, &plan, &corrected);
+    let mut tally = Tally::default();
+    for_each_frame(
+        &run_dir.join("tracks.csv"),
+        names.len(),
+        |f, pos, score, status| {
+            tally.frames += 1;
+            for st in status {
+                *tally.status.entry(st.as_str()).or_default() += 1;
+            }
+            if let Some(j) = stream.push(f, pos, score, status) {
+                builder.push(j.frame, &j.mask, &j.weight);
+            }
+        },
+    )?;
+    for j in stream.finish() {
+        builder.push(j.frame, &j.mask, &j.weight);
+    }
     let files = manifest.segment.len() as u64;
-    let report = Report::build(&table, &ev, &names, &plan, &corrected, files, &th);
-    Ok((table, report))
+    Ok((tally, builder.finish(files, &th)))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geom::Point;
+    use crate::run::evidence::Stream;
     use crate::run::evidence::{evidence, NEAR};
     use crate::skeleton::Skeleton;
     use crate::track::Status;
@@ -350,6 +411,38 @@ mod tests {
         };
         let r = Report::build(t, &ev, &sk.names, &plan, &[], 3, &th);
         (ev, r)
+    }
+
+    #[test]
+    fn doubts_on_the_first_and_last_frames_spread_inwards() {
+        let (mut t, sk) = still(20);
+        t.status[0][1] = Status::Occluded;
+        t.status[19][1] = Status::Occluded;
+        let (ev, _) = report(&t, &sk);
+        let b: Vec<u8> = ev.mask.iter().map(|m| m[1]).collect();
+        assert_eq!(b[0], HIDDEN);
+        assert_eq!(b[19], HIDDEN);
+        assert!(b[1..=5].iter().all(|&m| m == NEAR), "{b:?}");
+        assert!(b[14..=18].iter().all(|&m| m == NEAR), "{b:?}");
+        assert!(b[6..=13].iter().all(|&m| m == 0), "{b:?}");
+    }
+
+    #[test]
+    fn the_stream_holds_a_window_not_the_clip() {
+        // 10 000 frames through the stream: each comes out `spread` frames after it goes in,
+        // in order, and no more than the window is ever held.
+        let (t, sk) = still(1);
+        let th = Thresholds::default();
+        let (sides, seed_len) = ([10.0, 10.0], [0.0, 10.0]);
+        let mut s = Stream::new(&sk, &sides, &seed_len, &th);
+        let mut out = Vec::new();
+        for f in 0..10_000u64 {
+            out.extend(s.push(f, &t.pos[0], &t.score[0], &t.status[0]));
+            assert_eq!(out.len() as u64, (f + 1).saturating_sub(th.spread));
+            assert!(s.held_frames() <= 2 * th.spread as usize + 1);
+        }
+        out.extend(s.finish());
+        assert!(out.iter().map(|j| j.frame).eq(0..10_000));
     }
 
     #[test]

@@ -6,7 +6,9 @@
 //! 3 decimals), `status` (see [`crate::track::Status`]: `seed`, `ok`, `low`, `occluded`, `lost`).
 
 use crate::error::{Error, Result};
-use crate::track::JointEstimate;
+use crate::geom::Point;
+use crate::run::segments::parse_status;
+use crate::track::{JointEstimate, Status};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -101,6 +103,48 @@ pub fn read_tracks(path: &Path) -> Result<Vec<TrackRow>> {
         msg: format!("cannot read tracks: {e}"),
     })?;
     parse_tracks(&bytes, path)
+}
+
+/// Reads `tracks.csv` a frame at a time, without holding the file: `f(frame, positions, scores,
+/// statuses)` for each run of `joints` rows (one frame, seed-file order; an unknown status word
+/// counts as `lost`). Errors as [`read_tracks`]'s.
+pub fn for_each_frame(
+    path: &Path,
+    joints: usize,
+    mut f: impl FnMut(u64, &[Point], &[f32], &[Status]),
+) -> Result<()> {
+    let file = std::fs::File::open(path).map_err(|e| Error::RunFolder {
+        path: path.to_owned(),
+        msg: format!("cannot read tracks: {e}"),
+    })?;
+    let joints = joints.max(1);
+    let (mut pos, mut score, mut status) = (Vec::new(), Vec::new(), Vec::new());
+    let mut frame = 0;
+    for (i, r) in csv::Reader::from_reader(file)
+        .deserialize::<TrackRow>()
+        .enumerate()
+    {
+        let r = r.map_err(|e| Error::RunFolder {
+            path: path.to_owned(),
+            msg: format!("line {}: {e}", i + 2),
+        })?;
+        if pos.is_empty() {
+            frame = r.frame;
+        }
+        pos.push(Point::new(r.x, r.y));
+        score.push(r.score);
+        status.push(parse_status(&r.status).unwrap_or(Status::Lost));
+        if pos.len() == joints {
+            f(frame, &pos, &score, &status);
+            pos.clear();
+            score.clear();
+            status.clear();
+        }
+    }
+    if !pos.is_empty() {
+        f(frame, &pos, &score, &status);
+    }
+    Ok(())
 }
 
 /// Parses the bytes of a `tracks.csv` (`path` for messages only); a row that does not fit the
