@@ -4,8 +4,8 @@
 //!
 //! The motion is the ground truth of a synthetic walk (rendered at 640×360, positions doubled to
 //! 1280×720: only the joint paths are needed), written as a run folder under
-//! `target/bench/render/`. Prints, in frames/s: retarget (read tracks, write pose.csv) + rig build
-//! + deform and draw every frame in memory (the render itself), and the whole `mocap2d render`
+//! `target/bench/render/`. Prints, in frames/s: retarget (read tracks, write pose.csv), rig build
+//! plus deform and draw every frame in memory (the render itself), and the whole `mocap2d render`
 //! with H.264 encoding to an mp4. `scripts/bench --render` runs this.
 
 use anyhow::{Context, Result};

@@ -314,7 +314,7 @@ fn walk_with_jump_pck5(params: mocap2d::track::TrackParams, from: usize) -> f32 
         params,
         &seeds,
         &frames[0],
-        Some(Background::fit(&[bgi.clone()]).unwrap()),
+        Some(Background::fit(std::slice::from_ref(bgi)).unwrap()),
     );
     let (mut hit, mut n) = (0, 0);
     for (f, frame) in frames.iter().enumerate().skip(1) {
@@ -414,7 +414,7 @@ fn a_lost_body_is_not_found_again_on_its_look_alike() {
         Default::default(),
         &seeds,
         &frames[0],
-        Some(Background::fit(&[bgi.clone()]).unwrap()),
+        Some(Background::fit(std::slice::from_ref(bgi)).unwrap()),
     );
     let (mut on_twin, mut hit, mut total) = (0, 0, 0);
     for (f, frame) in frames.iter().enumerate().skip(1) {

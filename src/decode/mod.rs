@@ -220,12 +220,11 @@ pub fn open_beside_tracking(path: &Path, fps: Option<f64>) -> Result<Box<dyn Fra
     open_with(path, fps, open_video_beside)
 }
 
+/// How [`open_with`] opens a video file (the FFmpeg source, or a test's stand-in).
+type OpenVideo = fn(&Path, Option<f64>) -> Result<Box<dyn FrameSource>>;
+
 /// [`open`] with `video` opening a video file.
-fn open_with(
-    path: &Path,
-    fps: Option<f64>,
-    video: fn(&Path, Option<f64>) -> Result<Box<dyn FrameSource>>,
-) -> Result<Box<dyn FrameSource>> {
+fn open_with(path: &Path, fps: Option<f64>, video: OpenVideo) -> Result<Box<dyn FrameSource>> {
     check_fps(fps)?;
     let meta = clip_metadata(path)?;
     if meta.is_dir() {

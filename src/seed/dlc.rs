@@ -121,9 +121,9 @@ pub fn seeds_from_dlc(path: &Path, options: &DlcSeedOptions) -> Result<(Seeds, S
         ),
         None => {
             let mut parents = vec![None; table.joints.len()];
-            for j in 1..table.joints.len() {
+            for (j, parent) in parents.iter_mut().enumerate().skip(1) {
                 if table.individuals[j] == table.individuals[j - 1] {
-                    parents[j] = Some(j - 1);
+                    *parent = Some(j - 1);
                 }
             }
             let chain = table.joints.join(" -> ");

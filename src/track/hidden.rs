@@ -217,7 +217,7 @@ impl Tracker {
                 continue;
             };
             // Hidden joints take turns: each is looked for every `every` frames.
-            if evidence[j] >= seen_share || (self.frame_count() + j) % every != 0 {
+            if evidence[j] >= seen_share || !(self.frame_count() + j).is_multiple_of(every) {
                 continue;
             }
             if evidence[par] >= seen_share || found[par] {

@@ -38,7 +38,9 @@ impl Tracker {
                 continue;
             }
             let run = self.joints[r].hidden_run + 1;
-            if run < p.redetect_after || (run - p.redetect_after) % p.redetect_every.max(1) != 0 {
+            if run < p.redetect_after
+                || !(run - p.redetect_after).is_multiple_of(p.redetect_every.max(1))
+            {
                 continue;
             }
             let body = self.descendants_and_self(r);

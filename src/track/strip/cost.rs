@@ -414,6 +414,8 @@ impl Strip {
                 ab[i] = [a00 * col[0] + a01 * col[1], a01 * col[0] + a11 * col[1]];
                 out.g[i] += f * (b0 * col[0] + b1 * col[1]) as f64;
             }
+            // The upper triangle of a 4×4 matrix: indices read clearer than zipped iterators.
+            #[allow(clippy::needless_range_loop)]
             for i in 0..4 {
                 for j in i..4 {
                     out.h[i][j] += f * (cols[i][0] * ab[j][0] + cols[i][1] * ab[j][1]) as f64;

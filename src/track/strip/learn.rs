@@ -164,6 +164,8 @@ impl Strip {
                 continue;
             };
             if self.residual(k, 0, col, gain, inv) < INLIER_E {
+                // One running colour per level and channel, indexed alike in `running`.
+                #[allow(clippy::needless_range_loop)]
                 for lv in 0..MAX_LEVELS.min(views.len()) {
                     let seen = if lv == 0 {
                         Some(col)
