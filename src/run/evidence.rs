@@ -19,8 +19,6 @@
 //! A joint-frame weighs the most of the evidence it shows (see [`evidence`]).
 
 use crate::geom::Point;
-use crate::run::segments::parse_status;
-use crate::run::tracks::TrackRow;
 use crate::skeleton::Skeleton;
 use crate::track::Status;
 use std::collections::VecDeque;
@@ -75,39 +73,14 @@ impl Default for Thresholds {
     }
 }
 
-/// Tracks as a dense table: `frames[i]` and its joints' rows `est[i]` (seed-file order).
+/// Tracks as a dense table: `frames[i]` and its joints' rows (seed-file order), for judging a
+/// whole clip at once ([`evidence`]); a run's report streams instead ([`Stream`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
     pub frames: Vec<u64>,
     pub pos: Vec<Vec<Point>>,
     pub score: Vec<Vec<f32>>,
     pub status: Vec<Vec<Status>>,
-}
-
-impl Table {
-    /// The table of `tracks.csv` rows (by frame, then joint; `joints` per frame). Unknown status
-    /// words count as `lost`.
-    pub fn from_rows(rows: &[TrackRow], joints: usize) -> Table {
-        let mut t = Table {
-            frames: Vec::new(),
-            pos: Vec::new(),
-            score: Vec::new(),
-            status: Vec::new(),
-        };
-        for chunk in rows.chunks(joints.max(1)) {
-            t.frames.push(chunk[0].frame);
-            t.pos
-                .push(chunk.iter().map(|r| Point::new(r.x, r.y)).collect());
-            t.score.push(chunk.iter().map(|r| r.score).collect());
-            t.status.push(
-                chunk
-                    .iter()
-                    .map(|r| parse_status(&r.status).unwrap_or(Status::Lost))
-                    .collect(),
-            );
-        }
-        t
-    }
 }
 
 /// Evidence on every joint-frame of a table: which kinds show (bits [`LOW`] … [`BONE`], or
