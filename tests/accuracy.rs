@@ -238,7 +238,8 @@ fn flies_clip_runs_and_reports_its_error() {
 
     // The correction workflow on real footage: the labels written into the segment files the
     // report names, then `resume` from the first. Measured: files 6-10 (frames 900-1499, where
-    // the flies walk), PCK@5 77.4 -> 83.0 %, PCK@10 86.4 % (82.6 % before the bone-length prior
+    // the flies walk), PCK@5 77.4 -> 83.5 %, PCK@10 86.4 % (83.1 % with the blend's passes
+    // agreeing only within 3 px, until the ninth session; 82.6 % before the bone-length prior
     // was anchored to the seed length; 82.8 % with the defaults before the sixth session; 83.0 %
     // before bones hidden on a correction kept the seed appearance).
     let run = dir.path().join("run");
@@ -272,7 +273,7 @@ fn flies_clip_runs_and_reports_its_error() {
     let line = &eval(&run, &shared.join("gt.csv"), false).unwrap()[0];
     println!("flies, flagged files corrected: {line}");
     let (_, corrected) = parse_line(line);
-    assert!(corrected >= 0.82, "PCK@5 {pck5} -> {corrected}");
+    assert!(corrected >= 0.833, "PCK@5 {pck5} -> {corrected}");
 }
 
 /// PCK@5 (0–1) over frames `from..` of the walk clip (640×360, seed 1) where the character

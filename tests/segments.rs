@@ -266,8 +266,10 @@ fn corrections_of_flagged_segments_lift_accuracy() {
         assert!(after >= 0.945, "seed {seed}: PCK@5 {before} -> {after}");
         sum += after;
     }
-    // Measured (all six segments flagged, their seven files corrected): 91.7 -> 95.4, 94.7 ->
-    // 96.8, 86.3 -> 96.8, 92.0 -> 96.5, 89.0 -> 95.9 %, mean 96.3 %. Before disputed `low`
+    // Measured (all six segments flagged, their seven files corrected): 91.7 -> 95.7, 94.7 ->
+    // 97.1, 86.3 -> 97.3, 92.0 -> 97.0, 89.0 -> 96.5 %, mean 96.7 %. With passes agreeing only
+    // within 3 px (until the ninth session): 95.4 / 96.8 / 96.8 / 96.5 / 95.9 %, mean 96.3 %
+    // (fails the bound). Before disputed `low`
     // winners of the blend were left to the gap filling: 95.1 / 96.6 / 96.6 / 96.0 / 95.8 %, mean
     // 96.0 % (fails the bound). Before the bone-length prior
     // was anchored to the seed length: 95.8 / 96.8 / 96.0 / 95.4 / 95.8 %, mean 96.0 %. Seed 1
@@ -275,7 +277,7 @@ fn corrections_of_flagged_segments_lift_accuracy() {
     // 96.5 %; without the seed appearance for bones hidden on a keyframe: 96.0 %; without filling
     // joints hidden in every blended pass between the keyframes as well: 95.4 % (both with the
     // earlier defaults).
-    assert!(sum / 5.0 >= 0.961, "mean PCK@5 {}", sum / 5.0);
+    assert!(sum / 5.0 >= 0.966, "mean PCK@5 {}", sum / 5.0);
 }
 
 /// What a user does first: correct only the worst flagged segment (its file and the next one,
@@ -302,8 +304,8 @@ fn correcting_only_the_worst_segment_makes_the_rest_better() {
         before_sum += before;
         after_sum += after;
     }
-    // Measured: 90.1 -> 88.7, 93.6 -> 94.3, 82.3 -> 90.3, 89.5 -> 92.4, 86.8 -> 90.4 %; means
-    // 88.5 -> 91.2 % (91.1 % before disputed `low` winners of the blend were left to the gap
+    // Measured: 90.1 -> 88.7, 93.6 -> 94.5, 82.3 -> 90.2, 89.5 -> 92.5, 86.8 -> 90.5 %; means
+    // 88.5 -> 91.3 % (91.2 % with passes agreeing only within 3 px; 91.1 % before disputed `low` winners of the blend were left to the gap
     // filling: 88.6, 94.1, 90.3, 92.1, 90.4 %). Before the bone-length prior was anchored to the seed length: 87.3 ->
     // 89.6, 93.1 -> 91.7, 75.5 -> 90.7, 89.3 -> 89.6, 92.4 -> 86.1 %; means 87.5 -> 89.5 %.
     // Carrying on the tracker built on the correction (until the fifth session; before that,

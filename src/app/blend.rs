@@ -32,8 +32,13 @@
 use crate::run::segments::turns_near;
 use crate::track::{JointEstimate, Status};
 
-/// Passes closer than this (px) agree.
-pub const AGREE_PX: f32 = 3.0;
+/// Passes closer than this (px) agree. Ten corrected cases (`long` seeds 1–5, the 240-frame
+/// clip seeds 1–5, every file set to the ground truth), mean PCK@5 by radius: 3 px 96.46 %,
+/// 6 px 96.55, 8 px 96.72, 10 px 96.67, 12 px 96.61, 16 px 96.38; flies with the report's five
+/// files corrected 83.1 / 83.3 / 83.5 / 83.4 / 83.2 % (3 to 12 px). Two passes that started
+/// from different keyframes and land a few pixels apart have mostly found the same limb, each
+/// a little off; the disputed rule below is for passes that found different ones.
+pub const AGREE_PX: f32 = 8.0;
 
 /// A pass's weight for an estimate.
 fn weight(e: &JointEstimate) -> f32 {
@@ -134,6 +139,23 @@ mod tests {
         let out = blend(&[p(0.0, 0.9), p(20.0, 0.6), p(21.0, 0.6)]);
         // Support: 0.9 for the lone pass, 1.2 for each of the pair.
         assert!((out[0][0].pos.x - 20.5).abs() < 1e-4, "{:?}", out[0][0].pos);
+    }
+
+    #[test]
+    fn passes_a_few_pixels_apart_back_each_other() {
+        // 5 px apart (the same limb found twice, each a little off) against a lone pass 20 px
+        // away that is more confident than either: the pair wins, averaged by score.
+        let out = blend(&[
+            vec![e(0.0, 0.6, Status::Ok)],
+            vec![e(5.0, 0.5, Status::Low)],
+            vec![e(20.0, 0.9, Status::Ok)],
+        ]);
+        assert!(
+            (out[0][0].pos.x - 2.5 / 1.1).abs() < 1e-4,
+            "{:?}",
+            out[0][0].pos
+        );
+        assert_eq!(out[0][0].status, Status::Ok);
     }
 
     #[test]
