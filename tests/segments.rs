@@ -326,9 +326,9 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
     let run = s.path("run");
     let first = s.track("run", 150);
     let (before, after) = s.correct_segment(&run, first.flagged[0], 0);
-    // Measured: 91.4 -> 93.8 % (segment 2; 93.9 % with passes agreeing only within 3 px; 90.2 -> 94.2 % with segment 1 before the bone-length
-    // prior was anchored to the seed length; 91.0 -> 93.3 % with the defaults before the sixth
-    // session). Carrying on the tracker built on the correction (until the fifth session):
+    // Measured: 91.4 -> 93.8 % (segment 2; 93.9 % with passes agreeing only within 3 px;
+    // 90.2 -> 94.2 % with segment 1 before the bone-length prior was anchored to the seed
+    // length; 91.0 -> 93.3 % with the defaults before the sixth session). Carrying on the tracker built on the correction (until the fifth session):
     // 81.6 % (earlier defaults).
     assert!(after >= 0.925, "{before} -> {after}");
 }
