@@ -124,10 +124,7 @@ pub fn for_each_frame(
         .deserialize::<TrackRow>()
         .enumerate()
     {
-        let r = r.map_err(|e| Error::RunFolder {
-            path: path.to_owned(),
-            msg: format!("line {}: {e}", i + 2),
-        })?;
+        let r = r.map_err(|e| row_error(path, i, e))?;
         if pos.is_empty() {
             frame = r.frame;
         }
@@ -147,17 +144,21 @@ pub fn for_each_frame(
     Ok(())
 }
 
+/// Row `i` (0-based, after the header) of `path` does not fit the columns: the error names its
+/// line.
+fn row_error(path: &Path, i: usize, e: csv::Error) -> Error {
+    Error::RunFolder {
+        path: path.to_owned(),
+        msg: format!("line {}: {e}", i + 2),
+    }
+}
+
 /// Parses the bytes of a `tracks.csv` (`path` for messages only); a row that does not fit the
 /// columns is an [`Error::RunFolder`] naming its line.
 pub fn parse_tracks(bytes: &[u8], path: &Path) -> Result<Vec<TrackRow>> {
     csv::Reader::from_reader(bytes)
         .deserialize()
         .enumerate()
-        .map(|(i, r)| {
-            r.map_err(|e| Error::RunFolder {
-                path: path.to_owned(),
-                msg: format!("line {}: {e}", i + 2),
-            })
-        })
+        .map(|(i, r)| r.map_err(|e| row_error(path, i, e)))
         .collect()
 }
