@@ -432,12 +432,19 @@ fn long_walks_turns_waves_and_crouches() {
         .count();
     assert!(waving >= 100, "arms above the head on {waving} frames");
     let leg = |f: &Vec<(f32, f32)>| f[ankle_l].1.max(f[ankle_r].1) - f[pelvis].1;
-    let crouched = clip
-        .gt
-        .iter()
-        .filter(|f| leg(f) < 0.6 * leg(&clip.gt[0]))
-        .count();
-    assert!(crouched >= 20, "crouched on {crouched} frames");
+    let crouched: Vec<usize> = (0..clip.gt.len())
+        .filter(|&t| leg(&clip.gt[t]) < 0.6 * leg(&clip.gt[0]))
+        .collect();
+    assert!(crouched.len() >= 20, "crouched on {} frames", crouched.len());
+    // Twice, between the waving and the second turn, as `long` says (until the tenth session
+    // the first crouch's window was open at the start, so it crouched six times, during the
+    // first turn and the walks too).
+    let bouts = 1 + crouched.windows(2).filter(|w| w[1] > w[0] + 1).count();
+    assert_eq!(bouts, 2, "crouched on frames {crouched:?}");
+    assert!(
+        crouched.iter().all(|t| (490..605).contains(t)),
+        "crouched on frames {crouched:?}"
+    );
     // Walking covers ground both ways.
     let xs: Vec<f32> = clip.gt.iter().map(|f| f[pelvis].0).collect();
     let (lo, hi) = xs.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &x| {
