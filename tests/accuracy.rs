@@ -164,12 +164,14 @@ fn long_clip_with_turns_is_tracked() {
     // Default segments of 150: tracking goes on through uncorrected segment files (one
     // segment: 80.5 %).
     let ((median, pck5), _dir) = synth_run(Scenario::Long, None);
-    // Measured: median 0.15 px, PCK@5 91.4 % (issue target: >= 85 %, <= 2.5 px); seeds 2-5:
-    // 92.8, 93.5, 94.5, 92.3 %. Before the bone-length prior was anchored to the seed length
+    // Measured: median 0.14 px, PCK@5 92.7 % (issue target: >= 85 %, <= 2.5 px); seeds 2-5:
+    // 93.5, 94.7, 95.9, 95.2 %. Until the tenth session `long` crouched six times, four by
+    // mistake (once through the first turn); on that clip median 0.15 px, PCK@5 91.4 %, seeds
+    // 2-5 92.8, 93.5, 94.5, 92.3 %. Before the bone-length prior was anchored to the seed length
     // 90.2, 94.5, 92.5, 93.2, 93.8 % (seeds 1-10: mean 92.3 against 93.0 % now); with the
     // defaults before the sixth session 91.0, 93.2, 93.5, 94.1, 92.1 %. 87.7 % without filling
     // one joint's gaps while another stays hidden (see gapfill).
-    assert!(pck5 >= 0.91, "PCK@5 {pck5}, median {median}");
+    assert!(pck5 >= 0.92, "PCK@5 {pck5}, median {median}");
     assert!(median <= 0.5, "median {median}");
 }
 

@@ -435,7 +435,11 @@ fn long_walks_turns_waves_and_crouches() {
     let crouched: Vec<usize> = (0..clip.gt.len())
         .filter(|&t| leg(&clip.gt[t]) < 0.6 * leg(&clip.gt[0]))
         .collect();
-    assert!(crouched.len() >= 20, "crouched on {} frames", crouched.len());
+    assert!(
+        crouched.len() >= 20,
+        "crouched on {} frames",
+        crouched.len()
+    );
     // Twice, between the waving and the second turn, as `long` says (until the tenth session
     // the first crouch's window was open at the start, so it crouched six times, during the
     // first turn and the walks too).

@@ -376,7 +376,8 @@ fn long(frames: usize, rng: &mut Rng, facing0: f32) -> Vec<Pose> {
         }
         let wave_both = window(lt, 362.0, 475.0, 18.0);
         let wave_near = window(lt, 630.0, 745.0, 18.0);
-        let crouch = ((lt - 490.0) / 55.0 * PI).sin().max(0.0) * f32::from((490.0..545.0).contains(&lt))
+        let crouch = ((lt - 490.0) / 55.0 * PI).sin().max(0.0)
+            * f32::from((490.0..545.0).contains(&lt))
             + ((lt - 550.0) / 55.0 * PI).sin().max(0.0) * f32::from((550.0..605.0).contains(&lt));
         let crouch = crouch * crouch;
 
