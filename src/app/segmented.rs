@@ -49,6 +49,7 @@ use crate::run::report::{Report, Tally};
 use crate::run::segments::{self, file_text, Plan, Start};
 use crate::run::{Manifest, SegmentRecord};
 use crate::seed::Seeds;
+use crate::track::scale::WorkScale;
 use crate::track::{gapfill::GapFiller, JointEstimate, TrackParams, Tracker};
 use image::RgbImage;
 use std::path::PathBuf;
@@ -265,8 +266,17 @@ impl Session {
         }
     }
 
+    /// A tracker built from `seeds` on `frame`, at the run's working resolution (its seed
+    /// file's, whatever the rectangles of a corrected file: the run's trackers exchange states).
     fn tracker(&self, seeds: &Seeds, frame: &RgbImage) -> Tracker {
-        Tracker::new(self.params.clone(), seeds, frame, self.background.clone())
+        let work = WorkScale::for_seeds(&self.params, &self.base);
+        Tracker::new_at(
+            self.params.clone(),
+            seeds,
+            frame,
+            self.background.clone(),
+            work,
+        )
     }
 
     /// A tracker built on the seed frame from segment 0's file.

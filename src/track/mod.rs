@@ -31,6 +31,7 @@ mod motion;
 mod params;
 pub mod pixels;
 mod redetect;
+pub mod scale;
 pub mod search;
 pub mod solve;
 pub mod state;

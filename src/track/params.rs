@@ -85,6 +85,13 @@ pub struct TrackParams {
     pub iterations: usize,
     /// Finest pyramid level the refinement goes down to (0: full resolution).
     pub finest_level: usize,
+    /// Large frames are tracked halved (2×2 averages), up to twice, as long as the median seed
+    /// rectangle keeps its smaller side at least this many px (0: always full resolution);
+    /// every px parameter here is then in the halved frame's pixels (pyramid levels,
+    /// `judge_level` and `finest_level`, still count from the frame). 20 keeps the synth clips
+    /// at 640×360 (21-px rectangles) and the flies (15 px) at full resolution and tracks
+    /// 1280×720 (43 px) at 640×360 (see [`super::scale`]).
+    pub work_box_px: f32,
     /// Measurement standard deviation of a cleanly seen joint (px).
     pub meas_sigma_px: f32,
     /// Prior speed uncertainty of a root at the seed frame (px/frame).
@@ -171,6 +178,7 @@ impl Default for TrackParams {
             coarse_box_px: 5.0,
             iterations: 4,
             finest_level: 0,
+            work_box_px: 20.0,
             meas_sigma_px: 1.0,
             speed_sigma: 10.0,
             turn_sigma: 0.15,

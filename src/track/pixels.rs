@@ -205,6 +205,11 @@ fn halve_row(rows: &[u8], down: &mut [u16], across: &mut [u16], o: &mut [u8]) {
     }
 }
 
+/// `img` halved: 2×2 blocks averaged (rounded), odd edges dropped.
+pub fn halve_image(img: &RgbImage) -> RgbImage {
+    halve(img.as_raw(), img.width() as usize, img.height() as usize)
+}
+
 /// Every pyramid level of `img` as owned images, level 0 (a copy of `img`) first.
 pub fn halve_all(img: &RgbImage, levels: usize) -> Vec<RgbImage> {
     let mut out = vec![img.clone()];

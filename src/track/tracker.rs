@@ -5,6 +5,7 @@ use super::gapfill::GapFiller;
 use super::model::Model;
 use super::motion::{Motion, Prediction};
 use super::pixels::{halve_all, Image, Level, Pyramid};
+use super::scale::WorkScale;
 use super::strip::{Fit, Placement, Strip, View};
 use super::{JointEstimate, Status, TrackParams};
 use crate::background::Background;
@@ -49,6 +50,9 @@ pub struct Tracker {
     pub(super) seed_pos: Vec<Point>,
     /// Each root's body reach on the seed frame (px; see [`Tracker::body_reach`]).
     pub(super) reach: Vec<f32>,
+    /// The resolution tracked at: frames, seeds and positions in and out are converted, and
+    /// everything above (positions, `frame_max`, the model) is at that resolution.
+    work: WorkScale,
     /// The last frame's intermediate results, when asked for (see [`Tracker::trace`]).
     trace: Option<Trace>,
     /// Time spent in each part of [`Tracker::step`] so far.
@@ -82,13 +86,38 @@ pub struct Trace {
 }
 
 impl Tracker {
-    /// Builds the tracker from the seed file and the seed frame (see [`Model::build`]).
+    /// Builds the tracker from the seed file and the seed frame (see [`Model::build`]), at the
+    /// working resolution the seeds call for ([`WorkScale::for_seeds`]).
     pub fn new(
         params: TrackParams,
         seeds: &Seeds,
         seed_frame: &RgbImage,
         background: Option<Background>,
     ) -> Self {
+        let work = WorkScale::for_seeds(&params, seeds);
+        Self::new_at(params, seeds, seed_frame, background, work)
+    }
+
+    /// [`Tracker::new`] at the working resolution `work`: trackers whose states or strips are
+    /// exchanged (a run's segments, a tracker built on a correction) must share one, whatever
+    /// the rectangles of the file each is built from.
+    pub fn new_at(
+        params: TrackParams,
+        seeds: &Seeds,
+        seed_frame: &RgbImage,
+        background: Option<Background>,
+        work: WorkScale,
+    ) -> Self {
+        let seeds = &work.seeds(seeds);
+        let seed_frame: &RgbImage = &work.image(seed_frame);
+        let background = background.map(|b| work.background(b));
+        // The levels that count the frame's resolution stay where they are in the frame: the
+        // halved frame is already the frame's level 1. (Judging on working level 1 instead,
+        // the frame's quarter resolution: 25 synth clips at 1280x720 95.0 against 95.2 %,
+        // `noisy` 97.4 against 98.1 %.)
+        let mut params = params;
+        params.judge_level = params.judge_level.saturating_sub(work.halvings as usize);
+        params.finest_level = params.finest_level.saturating_sub(work.halvings as usize);
         let sk = &seeds.skeleton;
         let centres: Vec<Point> = seeds.boxes().iter().map(|b| b.centre()).collect();
         let children: Vec<Vec<usize>> = (0..sk.len()).map(|i| sk.children(i)).collect();
@@ -139,6 +168,7 @@ impl Tracker {
             ),
             reach: Self::body_reach(&sk.parents, &centres),
             seed_pos: centres,
+            work,
             trace: None,
             timings: Timings::default(),
         }
@@ -158,6 +188,10 @@ impl Tracker {
     }
 
     fn restart(&mut self, centres: &[Point], moving: bool) {
+        let centres: &[Point] = &centres
+            .iter()
+            .map(|&c| self.work.to_work(c))
+            .collect::<Vec<_>>();
         for &j in &self.order {
             let par = self.parents[j];
             let motion = if moving {
@@ -225,9 +259,21 @@ impl Tracker {
         GapFiller::new(self.parents.clone(), self.order.clone(), max_gap)
     }
 
-    /// The estimates of the last processed frame (the seed frame right after `new`).
+    /// The resolution this tracker works at.
+    pub fn work_scale(&self) -> WorkScale {
+        self.work
+    }
+
+    /// The estimates of the last processed frame (the seed frame right after `new`), positions
+    /// in the frame's pixels.
     pub fn current(&self) -> Vec<JointEstimate> {
-        self.joints.iter().map(|j| j.last).collect()
+        self.joints
+            .iter()
+            .map(|j| JointEstimate {
+                pos: self.work.to_frame(j.last.pos),
+                ..j.last
+            })
+            .collect()
     }
 
     /// The frame's views: every pyramid level with the plate's (`plate`: its levels), and the
@@ -267,7 +313,10 @@ impl Tracker {
     /// sections then split work among the pool's threads directly, instead of each handing its
     /// work over from outside the pool and sleeping until it is done.
     pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
-        rayon::scope(|_| self.step_in_pool(frame))
+        rayon::scope(|_| {
+            let frame = self.work.image(frame);
+            self.step_in_pool(&frame)
+        })
     }
 
     /// [`Tracker::step`], on whatever thread calls it.
@@ -324,9 +373,9 @@ impl Tracker {
         }
         let trace = match (searched, refined) {
             (Some(searched), Some(refined)) => Some(Trace {
-                predicted: pred.iter().map(|q| q.pos).collect(),
-                searched,
-                refined,
+                predicted: pred.iter().map(|q| self.work.to_frame(q.pos)).collect(),
+                searched: searched.iter().map(|&q| self.work.to_frame(q)).collect(),
+                refined: refined.iter().map(|&q| self.work.to_frame(q)).collect(),
                 evidence: evidence.clone(),
                 reacquired: found.clone(),
             }),
@@ -491,6 +540,8 @@ impl Tracker {
     /// judging level) with its parent at `p` and the child at `c`.
     pub fn fit_bone(&self, frame: &RgbImage, child: usize, p: Point, c: Point) -> Option<Fit> {
         let s = &self.model.strips[self.model.strip_of[child]?];
+        let frame = &self.work.image(frame);
+        let (p, c) = (self.work.to_work(p), self.work.to_work(c));
         let pyr = Pyramid::new(frame, self.model.levels);
         let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
         Some(s.fit(&views[self.params.judge_level.min(views.len() - 1)], p, c))
@@ -502,7 +553,13 @@ impl Tracker {
     /// sampled for them is whatever covered them. They take `seed`'s appearance instead.
     /// Returns the joints whose bones did. A bone counts as found when at least
     /// [`HIDDEN_AT_KEYFRAME`] of its samples fit, overall or at its child end.
+    /// Both trackers must work at one resolution (nothing is adopted otherwise).
     pub fn adopt_hidden_from(&mut self, seed: &Tracker, frame: &RgbImage) -> Vec<usize> {
+        if seed.work != self.work {
+            debug_assert!(false, "trackers at two working resolutions");
+            return Vec::new();
+        }
+        let frame = &self.work.image(frame);
         let pyr = Pyramid::new(frame, seed.model.levels);
         let views = Self::views(seed.background.as_ref(), &seed.plate, &pyr, frame);
         let v = &views[seed.params.judge_level.min(views.len() - 1)];
@@ -536,6 +593,8 @@ impl Tracker {
         p: Point,
         c: Point,
     ) -> Vec<(f32, f32, f32, f32)> {
+        let frame = &self.work.image(frame);
+        let (p, c) = (self.work.to_work(p), self.work.to_work(c));
         let pyr = Pyramid::new(frame, 1);
         let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
         self.model.strip_of[child].map_or(Vec::new(), |si| {
