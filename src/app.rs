@@ -240,6 +240,7 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         }
         Some(d) => crate::seed::dlc::seeds_from_dlc(&opts.seeds, d)?,
     };
+    let work = crate::track::scale::WorkScale::for_seeds(&opts.params, &seeds);
     let source: Box<dyn FrameSource> = decode::open_beside_tracking(&opts.clip, opts.fps)?;
     let info = source.info().clone();
     let min = crate::seed::MIN_BOX_PX;
@@ -355,6 +356,20 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     }
     let mut summary = TrackSummary::new(run_dir, &session, &done);
     summary.note = note;
+    if work.halvings > 0 {
+        let (w, h) = (info.width >> work.halvings, info.height >> work.halvings);
+        let said = format!(
+            "tracked at {w}x{h}, the frames halved {}: the seed rectangles are large \
+             (`work_box_px`; px parameters are in those pixels, the tracks in the clip's; \
+             `work_box_px = 0` in --params tracks at full resolution)",
+            if work.halvings == 1 { "once" } else { "twice" }
+        );
+        summary.note = [summary.note, said]
+            .into_iter()
+            .filter(|n| !n.is_empty())
+            .collect::<Vec<_>>()
+            .join("; ");
+    }
     summary.decode_stop = decode_stop;
     Ok(summary)
 }
