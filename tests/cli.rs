@@ -53,6 +53,14 @@ impl Dir {
             .unwrap()
     }
 
+    /// Runs `mocap2d track` on the bundled sample into `out`, with `extra` arguments.
+    fn track_walk(&self, out: &str, extra: &[&str]) -> Output {
+        let (clip, seeds) = (walk("clip.mp4"), walk("joints.toml"));
+        let mut args = vec!["track", s(&clip), "--seeds", s(&seeds), "--out", out];
+        args.extend_from_slice(extra);
+        self.run(&args)
+    }
+
     /// Runs `mocap2d track CLIP --seeds SEEDS --out OUT`, asserting success.
     fn track_ok(&self, clip: &Path, seeds: &Path, out: &str, extra: &[&str]) -> PathBuf {
         let mut args = vec!["track", s(clip), "--seeds", s(seeds), "--out", out];
@@ -354,16 +362,7 @@ fn eval_prints_accuracy() {
 fn large_rectangles_are_tracked_halved_and_said() {
     let d = Dir::new();
     let params = d.write("params.toml", "work_box_px = 7.0\n");
-    let o = d.run(&[
-        "track",
-        s(&walk("clip.mp4")),
-        "--seeds",
-        s(&walk("joints.toml")),
-        "--params",
-        s(&params),
-        "--out",
-        "half.mocap",
-    ]);
+    let o = d.track_walk("half.mocap", &["--params", s(&params)]);
     assert_exit(&o, 0);
     assert!(
         stderr(&o).contains("note: tracked at 160x120, the frames halved once"),
@@ -385,14 +384,7 @@ fn large_rectangles_are_tracked_halved_and_said() {
     assert!(field("median=") <= 0.6, "{all}");
     assert!(field("PCK@5=") >= 99.0, "{all}");
     // At the default the sample stays at full resolution, and nothing is said.
-    let o = d.run(&[
-        "track",
-        s(&walk("clip.mp4")),
-        "--seeds",
-        s(&walk("joints.toml")),
-        "--out",
-        "full.mocap",
-    ]);
+    let o = d.track_walk("full.mocap", &[]);
     assert_exit(&o, 0);
     assert!(!stderr(&o).contains("halved"), "{}", stderr(&o));
 }
@@ -426,16 +418,7 @@ fn params_file_is_recorded_and_checked() {
     let refused = |name: &str, text: &str, needles: &[&str]| {
         let file = d.write(name, text);
         let out = format!("{name}.mocap");
-        let o = d.run(&[
-            "track",
-            s(&walk("clip.mp4")),
-            "--seeds",
-            s(&walk("joints.toml")),
-            "--params",
-            s(&file),
-            "--out",
-            &out,
-        ]);
+        let o = d.track_walk(&out, &["--params", s(&file)]);
         assert_user_error(&o, needles);
         assert!(!d.path(&out).exists());
     };
