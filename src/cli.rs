@@ -389,6 +389,14 @@ pub fn read_params(path: Option<&std::path::Path>) -> crate::Result<TrackParams>
             params.length_anchor
         )));
     }
+    if !(params.work_box_px.is_finite() && params.work_box_px >= 0.0) {
+        return Err(crate::Error::Usage(format!(
+            "{}: work_box_px = {} is out of range; give a rectangle side in px (0 tracks at \
+             full resolution)",
+            path.display(),
+            params.work_box_px
+        )));
+    }
     Ok(params)
 }
 

@@ -432,6 +432,15 @@ fn params_file_is_recorded_and_checked() {
         "length_anchor = 1.5\n",
         &["range.toml", "length_anchor = 1.5", "from 0"],
     );
+    refused(
+        "box.toml",
+        "work_box_px = -4.0\n",
+        &[
+            "box.toml",
+            "work_box_px = -4",
+            "0 tracks at full resolution",
+        ],
+    );
 }
 
 /// Exit code 2 and one message on stderr, `mocap2d: ...`, holding every string of `needles`.

@@ -585,7 +585,8 @@ impl Tracker {
         adopted
     }
 
-    /// Diagnostics: [`Strip::probe`] (full resolution) of the bone ending at joint `child`.
+    /// Diagnostics: [`Strip::probe`] (the working resolution's level 0; the positions it
+    /// returns are in that frame's pixels) of the bone ending at joint `child`.
     pub fn probe_bone(
         &self,
         frame: &RgbImage,
