@@ -48,18 +48,21 @@ pub struct Accuracy {
     pub pck5: f32,
     /// Share (0–1) within 10 px.
     pub pck10: f32,
+    /// Share (0–1) within 20 px (the real clips' score: their labels are a pose network's).
+    pub pck20: f32,
 }
 
 impl std::fmt::Display for Accuracy {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "n={} median={:.2}px p95={:.2}px PCK@5={:.1}% PCK@10={:.1}%",
+            "n={} median={:.2}px p95={:.2}px PCK@5={:.1}% PCK@10={:.1}% PCK@20={:.1}%",
             self.count,
             self.median_px,
             self.p95_px,
             100.0 * self.pck5,
-            100.0 * self.pck10
+            100.0 * self.pck10,
+            100.0 * self.pck20
         )
     }
 }
@@ -81,6 +84,7 @@ pub fn summarise(errors: &[f32]) -> Accuracy {
         p95_px: q(0.95),
         pck5: within(5.0),
         pck10: within(10.0),
+        pck20: within(20.0),
     }
 }
 

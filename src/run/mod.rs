@@ -10,12 +10,15 @@
 //!   report.md    segments ranked by need of correction ([`report`], from [`evidence`])
 //!   segments/    NNN.toml: segment NNN's seed file, the user's place to correct; NNN.csv: its
 //!                rows of tracks.csv, the checkpoint `resume` carries on from ([`segments`])
+//!   keys.toml    the user's keys on any frame, any subset of joints ([`keys`])
 //!   history/     NNN-tracks.csv, NNN-report.md: results a rerun replaced ([`folder`])
 //! ```
 //! Every file is written atomically (see [`crate::atomic`]).
 
 pub mod evidence;
 pub mod folder;
+pub mod keyed;
+pub mod keys;
 pub mod manifest;
 pub mod report;
 pub mod segments;

@@ -24,6 +24,7 @@
 mod bodies;
 pub mod gapfill;
 mod hidden;
+pub mod flow;
 pub mod kalman;
 mod locate;
 mod model;
