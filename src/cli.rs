@@ -113,12 +113,45 @@ pub struct ExportArgs {
     /// Output format.
     #[arg(long, value_enum)]
     pub format: crate::export::Format,
-    /// Target character file given to `mocap2d retarget` (spine only: its image is the skin).
+    /// Target character file given to `mocap2d retarget` (spine, dragonbones: its image is the
+    /// skin; default: the one RUN/retarget/retarget.toml names).
     #[arg(long)]
     pub target: Option<PathBuf>,
-    /// File to write (spine also writes the .atlas beside it).
+    /// File to write (spine also writes NAME.atlas and the image beside it; dragonbones
+    /// NAME_ske.json, NAME_tex.json and NAME_tex.png).
     #[arg(long)]
     pub out: PathBuf,
+    /// Spine, dragonbones: key each channel on as few frames as reproduce every frame within
+    /// this many px (and degrees for rotations).
+    #[arg(long, value_name = "PX", default_value_t = crate::export::keys::DEFAULT_TOLERANCE,
+          value_parser = parse_tolerance, conflicts_with = "every_frame")]
+    pub tolerance: f64,
+    /// Spine, dragonbones: one key per frame on every channel (no key reduction).
+    #[arg(long)]
+    pub every_frame: bool,
+}
+
+impl ExportArgs {
+    /// How the skeleton formats key their channels.
+    pub fn keys(&self) -> crate::export::keys::Keys {
+        if self.every_frame {
+            crate::export::keys::Keys::EveryFrame
+        } else {
+            crate::export::keys::Keys::Reduce {
+                tolerance: self.tolerance,
+            }
+        }
+    }
+}
+
+fn parse_tolerance(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 100.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?}: expected a tolerance above 0 and at most 100 (px and degrees), e.g. 0.5; \
+             --every-frame keys every frame"
+        )),
+    }
 }
 
 #[derive(Debug, clap::Args)]

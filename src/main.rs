@@ -333,11 +333,13 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             );
         }
         Command::Export(a) => {
+            let keys = a.keys();
             let s = app::export(&app::ExportOptions {
                 run: a.run,
                 format: a.format,
                 target: a.target,
                 out: a.out,
+                keys,
             })?;
             let files: Vec<String> = s.files.iter().map(|p| p.display().to_string()).collect();
             eprintln!(
