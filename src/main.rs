@@ -298,6 +298,10 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
         }
         Command::Retarget(a) => {
             let s = app::retarget(&a.run, &a.target, &a.options())?;
+            eprintln!("bones (target <- source):");
+            for line in &s.mapping {
+                eprintln!("  {line}");
+            }
             eprintln!(
                 "retargeted {} joints over {} frames (scale {:.3} px per image px) -> {}",
                 s.joints,

@@ -293,11 +293,16 @@ fn target_file_errors_exit_2_and_write_nothing() {
     let run = run_from_gt(d.path(), &c);
     std::fs::copy(characters("imp.png"), d.path().join("imp.png")).unwrap();
     let good = std::fs::read_to_string(characters("imp.toml")).unwrap();
-    let cases: [(&str, String, &str); 5] = [
+    let cases: [(&str, String, &str); 6] = [
         (
-            "topology",
-            good.replacen("parent = \"elbow_l\"", "parent = \"chest\"", 1),
-            "topology mismatch",
+            "map",
+            good.clone() + "\n[map]\nhead = \"mid(nose, chin)\"\n",
+            "[map] head = \"mid(nose, chin)\": the run has no joint \"nose\"",
+        ),
+        (
+            "bones",
+            good.clone() + "\n[bones]\nhead = [\"neck\", \"hat\"]\n",
+            "the run has no joint \"hat\"",
         ),
         ("image", good.replace("imp.png", "gone.png"), "not found"),
         (
@@ -307,8 +312,9 @@ fn target_file_errors_exit_2_and_write_nothing() {
         ),
         (
             "unmapped",
-            good.replace("\"toe_r\"", "\"toe_right\""),
-            "unmapped joint",
+            good.replace("name = \"", "name = \"x_")
+                .replace("parent = \"", "parent = \"x_"),
+            "no bone of this character is driven",
         ),
         (
             "key",
@@ -367,4 +373,99 @@ fn render_with_another_target_than_retarget_is_refused() {
         "{e}"
     );
     assert!(!d.path().join("frames").exists());
+}
+
+/// The real dance clip's seeds use the COCO keypoint names (left_hip, right_shoulder, ...) in a
+/// hip-rooted tree unlike either sample's: tracked on its first frames, the run retargets and
+/// renders onto every sample character in configs/characters/ with no map and no extra flags,
+/// and `retarget` says which source bone drives which target bone.
+#[test]
+#[cfg(feature = "ffmpeg")]
+fn the_dance_with_coco_names_retargets_and_renders_onto_every_sample_character() {
+    let dance = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/clips/dance");
+    if !dance.join("clip.mp4").exists() {
+        eprintln!(
+            "note: {} is absent; the COCO-names retarget was not run",
+            dance.display()
+        );
+        return;
+    }
+    let d = tempfile::tempdir().unwrap();
+    // A short slice: the first 6 frames as PNGs.
+    let slice = d.path().join("slice");
+    std::fs::create_dir_all(&slice).unwrap();
+    let mut source = mocap2d::decode::open(&dance.join("clip.mp4"), None).unwrap();
+    for f in 0..6 {
+        let img = source.next_frame().unwrap().unwrap();
+        img.save(slice.join(format!("frame{f}.png"))).unwrap();
+    }
+    let run = d.path().join("dance.mocap");
+    let o = mocap2d(&[
+        "track",
+        s(&slice),
+        "--seeds",
+        s(&dance.join("joints.toml")),
+        "--out",
+        s(&run),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut targets: Vec<PathBuf> = std::fs::read_dir(characters(""))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    targets.sort();
+    assert!(targets.len() >= 2, "{targets:?}");
+    for target in &targets {
+        let name = target.file_stem().unwrap().to_string_lossy().into_owned();
+        let o = mocap2d(&["retarget", s(&run), "--target", s(target)]);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{name}: {err}");
+        // The hips' midpoint carries the character; the arms follow the source's upper arms.
+        assert!(
+            err.contains("(root) follows mid(left_hip, right_hip)")
+                && err.contains("<- left_shoulder -> left_elbow")
+                && err.contains("<- right_elbow -> right_wrist"),
+            "{name}: {err}"
+        );
+        let ch = read_character(target).unwrap();
+        let got = poses(&run, &ch.skeleton.names);
+        assert_eq!(got.len(), 6, "{name}");
+        // The character moves (her arms and head do over these frames) and stays in the frame.
+        let moved = (0..ch.skeleton.len())
+            .map(|j| (got[5][j] - got[0][j]).norm())
+            .fold(0.0f32, f32::max);
+        assert!(moved > 1.0, "{name}: nothing moves ({moved} px)");
+        for p in got.iter().flatten() {
+            assert!(p.x.is_finite() && p.y.is_finite(), "{name}: {p:?}");
+        }
+        let frames = d.path().join(format!("frames-{name}"));
+        let o = mocap2d(&[
+            "render",
+            s(&run),
+            "--target",
+            s(target),
+            "--frames-dir",
+            s(&frames),
+            "-q",
+        ]);
+        assert!(
+            o.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        // Every frame is drawn, with the character on it (pixels unlike the backdrop).
+        for f in 0..6 {
+            let img = image::open(frames.join(format!("{f:06}.png")))
+                .unwrap()
+                .to_rgb8();
+            let bg = *img.get_pixel(0, 0);
+            let drawn = img.pixels().filter(|p| **p != bg).count();
+            assert!(
+                drawn > 2000,
+                "{name}: frame {f} shows {drawn} px of character"
+            );
+        }
+    }
 }

@@ -27,6 +27,9 @@ pub struct RetargetSummary {
     pub joints: usize,
     /// Output px per image px.
     pub scale: f64,
+    /// Which source joints drive which target bone, one line each
+    /// ([`retarget::mapping::Mapping::describe`]).
+    pub mapping: Vec<String>,
 }
 
 /// `mocap2d retarget RUN --target CHARACTER`: writes `RUN/retarget/` (pose.csv, bones.csv,
@@ -36,7 +39,7 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
     let (width, height, fps) = run_frame(run)?;
     let seeds_path = run.join("seeds.toml");
     let (seeds, _) = crate::seed::read_seeds(&seeds_path)?;
-    let to_source = character.match_source(&seeds.skeleton, &seeds_path)?;
+    let mapping = retarget::mapping::build(&character, &seeds.skeleton, &seeds_path)?;
     let tracks_path = run.join("tracks.csv");
     let rows = crate::run::tracks::read_tracks(&tracks_path)?;
     let motion = retarget::motion_from_tracks(&rows, &seeds.skeleton, &tracks_path)?;
@@ -44,19 +47,11 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         &character.skeleton,
         &character.rest,
         character.scale,
-        &seeds.skeleton,
+        &mapping,
         &motion.joints[0],
-        &to_source,
     );
     let rest_out: Vec<retarget::P64> = character.rest.iter().map(|&p| placement.apply(p)).collect();
-    let r = retarget::retarget(
-        &motion,
-        &seeds.skeleton,
-        &character.skeleton,
-        &to_source,
-        &rest_out,
-        options,
-    );
+    let r = retarget::retarget(&motion, &character.skeleton, &mapping, &rest_out, options);
     let names = &character.skeleton.names;
     let manifest = RetargetManifest {
         tool: "mocap2d".into(),
@@ -92,6 +87,7 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         frames: r.frames.len(),
         joints: names.len(),
         scale: placement.scale,
+        mapping: mapping.describe(&character.skeleton, &seeds.skeleton),
     })
 }
 

@@ -45,14 +45,14 @@ fn wobbly(frames: usize) -> Motion {
 fn identity_retarget_reproduces_the_tracks() {
     let s = skel();
     let m = wobbly(80);
-    let ident: Vec<usize> = (0..s.len()).collect();
+    let ident = Mapping::identity(&s);
     let rest: Vec<Point> = m.joints[0]
         .iter()
         .map(|p| Point::new(p[0] as f32, p[1] as f32))
         .collect();
-    let place = place(&s, &rest, Scale::Fit, &s, &m.joints[0], &ident);
+    let place = place(&s, &rest, Scale::Fit, &ident, &m.joints[0]);
     let rest_out: Vec<P64> = rest.iter().map(|&p| place.apply(p)).collect();
-    let r = retarget(&m, &s, &s, &ident, &rest_out, &RetargetOptions::default());
+    let r = retarget(&m, &s, &ident, &rest_out, &RetargetOptions::default());
     assert_eq!(r.frames, m.frames);
     let mut worst: f64 = 0.0;
     for (a, b) in r.joints.iter().zip(&m.joints) {
@@ -68,7 +68,7 @@ fn identity_retarget_reproduces_the_tracks() {
 fn length_ratios_and_angle_increments_carry_over_exactly() {
     let s = skel();
     let m = wobbly(120);
-    let ident: Vec<usize> = (0..s.len()).collect();
+    let ident = Mapping::identity(&s);
     // A target with other proportions and another rest pose.
     let rest_out: Vec<P64> = vec![
         [300.0, 100.0],
@@ -77,9 +77,13 @@ fn length_ratios_and_angle_increments_carry_over_exactly() {
         [280.0, 150.0],
         [300.0, 220.0],
     ];
-    let r = retarget(&m, &s, &s, &ident, &rest_out, &RetargetOptions::default());
+    let r = retarget(&m, &s, &ident, &rest_out, &RetargetOptions::default());
     for (b, &(p, c)) in s.bones().iter().enumerate() {
-        let (l, a) = bone_signals(&m.joints, p, c);
+        let (l, a) = bone_signals(
+            &m.joints,
+            &mapping::SourcePoint(vec![p]),
+            &mapping::SourcePoint(vec![c]),
+        );
         for t in 1..m.frames.len() {
             let want = l[t] / l[t - 1];
             let got = r.length[t][b] / r.length[t - 1][b];
@@ -129,14 +133,14 @@ fn place_fits_size_and_stands_on_the_source_floor() {
         .iter()
         .map(|p| Point::new((p[0] * 0.5 + 7.0) as f32, (p[1] * 0.5 + 3.0) as f32))
         .collect();
-    let ident: Vec<usize> = (0..s.len()).collect();
-    let pl = place(&s, &rest, Scale::Fit, &s, &src, &ident);
+    let ident = Mapping::identity(&s);
+    let pl = place(&s, &rest, Scale::Fit, &ident, &src);
     assert!((pl.scale - 2.0).abs() < 1e-9);
     for (p, q) in rest.iter().zip(&src) {
         let o = pl.apply(*p);
         assert!(dist(o, *q) < 1e-4, "{o:?} vs {q:?}");
     }
-    let pl = place(&s, &rest, Scale::Factor(1.0), &s, &src, &ident);
+    let pl = place(&s, &rest, Scale::Factor(1.0), &ident, &src);
     assert_eq!(pl.scale, 1.0);
     assert!(
         (pl.apply(rest[4])[1] - 200.0).abs() < 1e-9,
@@ -177,4 +181,80 @@ fn smooth_parses_its_two_forms() {
     );
     assert!("median:4".parse::<Smooth>().is_err());
     assert!("box:3".parse::<Smooth>().is_err());
+}
+
+#[test]
+fn bones_of_another_shape_are_driven_by_source_bones_and_the_rest_keep_their_angle() {
+    // Source: COCO-like hips and shoulders, the left shoulder hanging from the left hip.
+    // (joints: left_hip, right_hip, left_shoulder, right_shoulder, left_elbow)
+    let frames = 30;
+    let motion = Motion {
+        frames: (0..frames as u64).collect(),
+        joints: (0..frames)
+            .map(|t| {
+                let t = t as f64;
+                let lean = 0.02 * t; // the torso leans right
+                let (lh, rh) = ([110.0 + t, 200.0], [90.0 + t, 200.0]);
+                let up = |p: P64| [p[0] + 60.0 * lean.sin(), p[1] - 60.0 * lean.cos()];
+                let (ls, rs) = (up(lh), up(rh));
+                let a = 1.5 - 0.05 * t; // the left upper arm swings
+                vec![
+                    lh,
+                    rh,
+                    ls,
+                    rs,
+                    [ls[0] + 30.0 * a.cos(), ls[1] + 30.0 * a.sin()],
+                ]
+            })
+            .collect(),
+    };
+    // Target: pelvis -> chest -> elbow_l, pelvis -> tail (nothing drives the tail).
+    let target = Skeleton::new(
+        ["pelvis", "chest", "elbow_l", "tail"]
+            .map(String::from)
+            .to_vec(),
+        vec![None, Some(0), Some(1), Some(0)],
+    );
+    let rest_out: Vec<P64> = vec![[0.0, 0.0], [0.0, -50.0], [20.0, -30.0], [-10.0, 10.0]];
+    let pt = |v: &[usize]| mapping::SourcePoint(v.to_vec());
+    let m = Mapping {
+        bone: vec![
+            Some((pt(&[0, 1]), pt(&[2, 3]))),
+            Some((pt(&[2]), pt(&[4]))),
+            None,
+        ],
+        root: vec![Some(pt(&[0, 1])), None, None, None],
+    };
+    let r = retarget(&motion, &target, &m, &rest_out, &RetargetOptions::default());
+    for t in 0..frames {
+        // The chest leans with the mid-hips -> mid-shoulders line.
+        let lean = r.angle[t][0] - r.angle[0][0];
+        assert!((lean - 0.02 * t as f64).abs() < 1e-9, "{t}: {lean}");
+        // The upper arm turns with the source's, whatever the chest does.
+        let arm = r.angle[t][1] - r.angle[0][1];
+        assert!((arm + 0.05 * t as f64).abs() < 1e-9, "{t}: {arm}");
+        // The tail keeps its rest angle and length (its parent is the root: no bone to follow).
+        assert!((r.angle[t][2] - r.angle[0][2]).abs() < 1e-12);
+        assert!((r.length[t][2] - dist(rest_out[0], rest_out[3])).abs() < 1e-9);
+        // The root follows the hips' midpoint, scaled by the driven bones' size ratio.
+        let (ts, ss) = driven_sizes(&target, &rest_out, &m, &motion.joints[0]);
+        let want = rest_out[0][0] + ts / ss * t as f64;
+        assert!((r.joints[t][0][0] - want).abs() < 1e-9, "{t}");
+    }
+    // An undriven bone under a driven one turns with it.
+    let m2 = Mapping {
+        bone: vec![Some((pt(&[0, 1]), pt(&[2, 3]))), None, None],
+        root: m.root.clone(),
+    };
+    let r = retarget(
+        &motion,
+        &target,
+        &m2,
+        &rest_out,
+        &RetargetOptions::default(),
+    );
+    for t in 0..frames {
+        let d = (r.angle[t][1] - r.angle[t][0]) - (r.angle[0][1] - r.angle[0][0]);
+        assert!(d.abs() < 1e-12, "{t}: {d}");
+    }
 }
