@@ -49,6 +49,7 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         character.scale,
         &mapping,
         &motion.joints[0],
+        &retarget::reference_lengths(&motion.joints, &mapping),
     );
     let rest_out: Vec<retarget::P64> = character.rest.iter().map(|&p| placement.apply(p)).collect();
     let r = retarget::retarget(&motion, &character.skeleton, &mapping, &rest_out, options);

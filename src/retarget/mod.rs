@@ -6,11 +6,15 @@
 //! source bone:
 //! `Δl_mt = l_mt / l_m,t−1`, `Δa_mt = a_mt − a_m,t−1` (4.7), applied to the target's rest bone:
 //! `l'_mt = l'_m,t−1 · Δl_mt`, `a'_mt = a'_m,t−1 + Δa_mt` (4.8). The products and sums telescope,
-//! so they are computed as `l'_mt = l'_m0 · l_mt / l_m0` and `a'_mt = a'_m0 + (a_mt − a_m0)`:
-//! the same numbers without rounding piling up over a long clip. A target bone with no source
-//! bone keeps its rest length and its rest angle relative to its parent bone. Each root follows
-//! its source point's displacement from the first frame, scaled by the ratio of sizes (sums of
-//! the driven bones' lengths, target at rest against source on the first frame); the other
+//! so they are computed as `a'_mt = a'_m0 + (a_mt − a_m0)` and `l'_mt = L'_m · l_mt / L_m`: the
+//! same increments without rounding piling up over a long clip. The lengths are anchored at the
+//! source bone's median length over the clip `L_m` (the target's rest length `L'_m` stands for
+//! it), not at its first frame's: on real footage the first frame can be an odd one (the dance
+//! clip's seed frame has the subject close to the camera, and a knee and an ankle 4 px apart),
+//! and a first-frame anchor would carry that oddity through the whole clip. A target bone with no
+//! source bone keeps its rest length and its rest angle relative to its parent bone. Each root
+//! follows its source point's displacement from the first frame, scaled by the ratio of sizes
+//! (sums over the driven bones: target rest lengths against source median lengths); the other
 //! joints follow by forward kinematics.
 //!
 //! Before that, optionally, the source joints are smoothed ([`Smooth`]) and each bone's length
@@ -144,44 +148,68 @@ pub fn skeleton_size(skeleton: &Skeleton, joints: &[P64]) -> f64 {
         .sum()
 }
 
-/// Sums of the driven bones' lengths (px): the target's in `target_joints` and their source
-/// bones' in `source_joints`; the sizes [`place`] and [`retarget`] compare.
+/// `[target bone]`: the median over the frames of `joints` of the length (px) of the bone's
+/// source bone; `None` for a bone nothing drives.
+pub fn reference_lengths(joints: &[Vec<P64>], mapping: &Mapping) -> Vec<Option<f64>> {
+    mapping
+        .bone
+        .iter()
+        .map(|m| {
+            m.as_ref().map(|(a, b)| {
+                let l: Vec<f64> = joints.iter().map(|f| dist(a.at(f), b.at(f))).collect();
+                median(&l)
+            })
+        })
+        .collect()
+}
+
+/// The median of `v` (the mean of the two middle values for an even count; 0 when empty).
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => s[n / 2],
+        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+    }
+}
+
+/// Sums over the driven bones of the target's lengths in `target_joints` and of their source
+/// bones' `reference` lengths ([`reference_lengths`]), px: the sizes [`place`] and [`retarget`]
+/// compare.
 pub fn driven_sizes(
     target: &Skeleton,
     target_joints: &[P64],
-    mapping: &Mapping,
-    source_joints: &[P64],
+    reference: &[Option<f64>],
 ) -> (f64, f64) {
     target
         .bones()
         .iter()
-        .zip(&mapping.bone)
-        .filter_map(|(&(p, c), m)| m.as_ref().map(|m| (p, c, m)))
-        .fold((0.0, 0.0), |(t, s), (p, c, (a, b))| {
-            (
-                t + dist(target_joints[p], target_joints[c]),
-                s + dist(a.at(source_joints), b.at(source_joints)),
-            )
+        .zip(reference)
+        .filter_map(|(&(p, c), r)| r.map(|r| (p, c, r)))
+        .fold((0.0, 0.0), |(t, s), (p, c, r)| {
+            (t + dist(target_joints[p], target_joints[c]), s + r)
         })
 }
 
 /// Places the target's rest skeleton (`rest`, image px) in the output frame next to the source's
 /// first frame (`source_rest`, px): scaled by `scale` ([`Scale::Fit`]: so that its driven bones
-/// are as long as their source bones, in sum), its first root at the x of the source point it
-/// follows, and its lowest joint at the height of the source's lowest joint, so both stand on
-/// the same floor.
+/// are, in sum, as long as their source bones' `reference` lengths), its first root at the x of
+/// the source point it follows, and its lowest joint at the height of the source's lowest joint,
+/// so both stand on the same floor.
 pub fn place(
     target: &Skeleton,
     rest: &[Point],
     scale: Scale,
     mapping: &Mapping,
     source_rest: &[P64],
+    reference: &[Option<f64>],
 ) -> Placement {
     let rest64: Vec<P64> = rest.iter().map(|p| [p.x as f64, p.y as f64]).collect();
     let k = match scale {
         Scale::Factor(f) => f as f64,
         Scale::Fit => {
-            let (t, s) = driven_sizes(target, &rest64, mapping, source_rest);
+            let (t, s) = driven_sizes(target, &rest64, reference);
             if t > 1e-9 && s > 1e-9 {
                 s / t
             } else {
@@ -295,9 +323,9 @@ pub fn retarget(
                     l = filter::cartoon(&l, f.strength, f.sigma_frames);
                     a = filter::cartoon(&a, f.strength, f.sigma_frames);
                 }
-                let l0 = l[0].max(1e-9);
+                let l_ref = median(&l).max(1e-9);
                 for t in 0..frames {
-                    length[t][b] = (rest_len * l[t] / l0).max(0.0);
+                    length[t][b] = (rest_len * l[t] / l_ref).max(0.0);
                     angle[t][b] = rest_angle + (a[t] - a[0]);
                 }
             }
@@ -313,7 +341,7 @@ pub fn retarget(
             }
         }
     }
-    let (target_size, src_size) = driven_sizes(target, rest_out, mapping, &src[0]);
+    let (target_size, src_size) = driven_sizes(target, rest_out, &reference_lengths(&src, mapping));
     let ratio = if src_size > 1e-9 {
         target_size / src_size
     } else {

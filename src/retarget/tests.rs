@@ -14,6 +14,11 @@ fn skel() -> Skeleton {
 
 /// A motion that walks, bends, stretches and spins a bone once around (angles cross ±π).
 fn wobbly(frames: usize) -> Motion {
+    wobbly_stretching(frames, 1.0)
+}
+
+/// [`wobbly`] with its bones' stretching scaled by `stretch` (0: rigid bones).
+fn wobbly_stretching(frames: usize, stretch: f64) -> Motion {
     let joints = (0..frames)
         .map(|t| {
             let t = t as f64;
@@ -22,14 +27,14 @@ fn wobbly(frames: usize) -> Motion {
                 |from: P64, len: f64, a: f64| [from[0] + len * a.cos(), from[1] + len * a.sin()];
             let chest = polar(
                 root,
-                50.0 * (1.0 + 0.2 * (0.2 * t).sin()),
+                50.0 * (1.0 + stretch * 0.2 * (0.2 * t).sin()),
                 -1.5 + 0.1 * (0.4 * t).sin(),
             );
             let head = polar(chest, 20.0, -1.5 + t * std::f64::consts::TAU / 40.0);
             let knee = polar(root, 45.0, 1.7 + 0.5 * (0.25 * t).sin());
             let ankle = polar(
                 knee,
-                44.0 * (1.0 - 0.25 * (0.3 * t).sin()),
+                44.0 * (1.0 - stretch * 0.25 * (0.3 * t).sin()),
                 1.6 + 0.6 * (0.25 * t).cos(),
             );
             vec![root, chest, head, knee, ankle]
@@ -41,16 +46,26 @@ fn wobbly(frames: usize) -> Motion {
     }
 }
 
+/// Onto the source skeleton in its first frame's pose, rigid bones come back as tracked. (With
+/// stretching bones they do up to the lengths' anchor: the median length, not the first
+/// frame's; see the module docs.)
 #[test]
 fn identity_retarget_reproduces_the_tracks() {
     let s = skel();
-    let m = wobbly(80);
+    let m = wobbly_stretching(80, 0.0);
     let ident = Mapping::identity(&s);
     let rest: Vec<Point> = m.joints[0]
         .iter()
         .map(|p| Point::new(p[0] as f32, p[1] as f32))
         .collect();
-    let place = place(&s, &rest, Scale::Fit, &ident, &m.joints[0]);
+    let place = place(
+        &s,
+        &rest,
+        Scale::Fit,
+        &ident,
+        &m.joints[0],
+        &reference_lengths(&m.joints, &ident),
+    );
     let rest_out: Vec<P64> = rest.iter().map(|&p| place.apply(p)).collect();
     let r = retarget(&m, &s, &ident, &rest_out, &RetargetOptions::default());
     assert_eq!(r.frames, m.frames);
@@ -110,7 +125,9 @@ fn length_ratios_and_angle_increments_carry_over_exactly() {
         "{total}"
     );
     // The root moves by the source's displacement times the size ratio.
-    let ratio = skeleton_size(&s, &rest_out) / skeleton_size(&s, &m.joints[0]);
+    let (target_size, source_size) =
+        driven_sizes(&s, &rest_out, &reference_lengths(&m.joints, &ident));
+    let ratio = target_size / source_size;
     let t = 50;
     for (axis, rest) in rest_out[0].iter().enumerate() {
         let want = ratio * (m.joints[t][0][axis] - m.joints[0][0][axis]);
@@ -134,13 +151,14 @@ fn place_fits_size_and_stands_on_the_source_floor() {
         .map(|p| Point::new((p[0] * 0.5 + 7.0) as f32, (p[1] * 0.5 + 3.0) as f32))
         .collect();
     let ident = Mapping::identity(&s);
-    let pl = place(&s, &rest, Scale::Fit, &ident, &src);
+    let reference = reference_lengths(&[src.clone()], &ident);
+    let pl = place(&s, &rest, Scale::Fit, &ident, &src, &reference);
     assert!((pl.scale - 2.0).abs() < 1e-9);
     for (p, q) in rest.iter().zip(&src) {
         let o = pl.apply(*p);
         assert!(dist(o, *q) < 1e-4, "{o:?} vs {q:?}");
     }
-    let pl = place(&s, &rest, Scale::Factor(1.0), &ident, &src);
+    let pl = place(&s, &rest, Scale::Factor(1.0), &ident, &src, &reference);
     assert_eq!(pl.scale, 1.0);
     assert!(
         (pl.apply(rest[4])[1] - 200.0).abs() < 1e-9,
@@ -237,7 +255,7 @@ fn bones_of_another_shape_are_driven_by_source_bones_and_the_rest_keep_their_ang
         assert!((r.angle[t][2] - r.angle[0][2]).abs() < 1e-12);
         assert!((r.length[t][2] - dist(rest_out[0], rest_out[3])).abs() < 1e-9);
         // The root follows the hips' midpoint, scaled by the driven bones' size ratio.
-        let (ts, ss) = driven_sizes(&target, &rest_out, &m, &motion.joints[0]);
+        let (ts, ss) = driven_sizes(&target, &rest_out, &reference_lengths(&motion.joints, &m));
         let want = rest_out[0][0] + ts / ss * t as f64;
         assert!((r.joints[t][0][0] - want).abs() < 1e-9, "{t}");
     }
@@ -257,4 +275,32 @@ fn bones_of_another_shape_are_driven_by_source_bones_and_the_rest_keep_their_ang
         let d = (r.angle[t][1] - r.angle[t][0]) - (r.angle[0][1] - r.angle[0][0]);
         assert!(d.abs() < 1e-12, "{t}: {d}");
     }
+}
+
+#[test]
+fn lengths_are_anchored_at_the_median_so_an_odd_first_frame_does_not_carry_over() {
+    // A shin 4 px long on the first frame (a bad label), 100 px on every other.
+    let s = Skeleton::new(vec!["knee".into(), "ankle".into()], vec![None, Some(0)]);
+    let motion = Motion {
+        frames: (0..20).collect(),
+        joints: (0..20)
+            .map(|t| {
+                let l = if t == 0 { 4.0 } else { 100.0 };
+                vec![[50.0, 50.0], [50.0, 50.0 + l]]
+            })
+            .collect(),
+    };
+    let rest_out = vec![[0.0, 0.0], [0.0, 60.0]];
+    let m = Mapping::identity(&s);
+    let r = retarget(&motion, &s, &m, &rest_out, &RetargetOptions::default());
+    // The target's rest length stands for the typical 100 px, not for the first frame's 4 px.
+    for t in 1..20 {
+        assert!(
+            (r.length[t][0] - 60.0).abs() < 1e-9,
+            "{t}: {}",
+            r.length[t][0]
+        );
+    }
+    assert!((r.length[0][0] - 2.4).abs() < 1e-9);
+    assert_eq!(reference_lengths(&motion.joints, &m), vec![Some(100.0)]);
 }
