@@ -11,7 +11,8 @@
 //! source bone's median length over the clip `L_m` (the target's rest length `L'_m` stands for
 //! it), not at its first frame's: on real footage the first frame can be an odd one (the dance
 //! clip's seed frame has the subject close to the camera, and a knee and an ankle 4 px apart),
-//! and a first-frame anchor would carry that oddity through the whole clip. A target bone with no
+//! and a first-frame anchor would carry that oddity through the whole clip. The ratio
+//! `l_mt / L_m` is kept within [`MIN_LENGTH_RATIO`]..[`MAX_LENGTH_RATIO`]. A target bone with no
 //! source bone keeps its rest length and its rest angle relative to its parent bone. Each root
 //! follows its source point's displacement from the first frame, scaled by the ratio of sizes
 //! (sums over the driven bones: target rest lengths against source median lengths); the other
@@ -32,6 +33,14 @@ use crate::run::TrackRow;
 use crate::skeleton::Skeleton;
 use mapping::Mapping;
 use std::path::Path;
+
+/// Bounds of a driven bone's length relative to its rest length (its source bone's length over
+/// the source's median length): beyond them the source bone is a mislabelled or lost joint
+/// rather than a pose (on the dance clip a forearm labelled at 3 times its length, a head
+/// squashed to a fifth), and the target would show a needle or a disc.
+pub const MIN_LENGTH_RATIO: f64 = 1.0 / 3.0;
+/// See [`MIN_LENGTH_RATIO`].
+pub const MAX_LENGTH_RATIO: f64 = 1.5;
 
 /// A position in f64 px (image space, see [`crate::geom`]).
 pub type P64 = [f64; 2];
@@ -325,7 +334,8 @@ pub fn retarget(
                 }
                 let l_ref = median(&l).max(1e-9);
                 for t in 0..frames {
-                    length[t][b] = (rest_len * l[t] / l_ref).max(0.0);
+                    let ratio = (l[t] / l_ref).clamp(MIN_LENGTH_RATIO, MAX_LENGTH_RATIO);
+                    length[t][b] = rest_len * ratio;
                     angle[t][b] = rest_angle + (a[t] - a[0]);
                 }
             }

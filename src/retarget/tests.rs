@@ -301,6 +301,7 @@ fn lengths_are_anchored_at_the_median_so_an_odd_first_frame_does_not_carry_over(
             r.length[t][0]
         );
     }
-    assert!((r.length[0][0] - 2.4).abs() < 1e-9);
+    // The 4 px frame: a ratio of 0.04, kept at the lower bound.
+    assert!((r.length[0][0] - 60.0 * MIN_LENGTH_RATIO).abs() < 1e-9);
     assert_eq!(reference_lengths(&motion.joints, &m), vec![Some(100.0)]);
 }
