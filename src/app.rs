@@ -553,8 +553,8 @@ mod review;
 mod segmented;
 mod serve;
 pub use animate::{
-    render, retarget, run_frame, RenderOptions, RenderSummary, Renderer, RetargetSummary,
-    RETARGET_DIR,
+    check_character, render, retarget, run_frame, RenderOptions, RenderSummary, Renderer,
+    RetargetSummary, RETARGET_DIR,
 };
 pub use blend::blend;
 pub use export::{export, ExportOptions, ExportSummary};

@@ -200,11 +200,16 @@ pub struct GuideArgs {
 
 #[derive(Debug, clap::Args)]
 pub struct RetargetArgs {
-    /// Run folder written by `mocap2d track`.
-    pub run: PathBuf,
+    /// Run folder written by `mocap2d track` (optional with --check).
+    #[arg(required_unless_present = "check")]
+    pub run: Option<PathBuf>,
     /// Target character file (TOML; see README, "Target character file").
     #[arg(long)]
     pub target: PathBuf,
+    /// Only check the target character file (and, with RUN, show which source bone would drive
+    /// which bone); write nothing.
+    #[arg(long)]
+    pub check: bool,
     /// Cartoon animation filter strength A (0 = off; 1 to 3 shows): anticipation and
     /// follow-through on every bone's length and angle.
     #[arg(long, value_name = "A", value_parser = parse_strength)]

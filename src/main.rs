@@ -296,8 +296,15 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 a.out.display()
             );
         }
+        Command::Retarget(a) if a.check => {
+            for line in app::check_character(&a.target, a.run.as_deref())? {
+                out!("{line}");
+            }
+        }
         Command::Retarget(a) => {
-            let s = app::retarget(&a.run, &a.target, &a.options())?;
+            // Cannot fail: clap requires RUN unless --check (the arm above).
+            let run = a.run.clone().expect("RUN required without --check");
+            let s = app::retarget(&run, &a.target, &a.options())?;
             eprintln!("bones (target <- source):");
             for line in &s.mapping {
                 eprintln!("  {line}");

@@ -469,3 +469,44 @@ fn the_dance_with_coco_names_retargets_and_renders_onto_every_sample_character()
         }
     }
 }
+
+#[test]
+fn retarget_check_checks_a_character_file_alone_and_writes_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let target = characters("dancer.toml");
+    let o = mocap2d(&["retarget", "--check", "--target", s(&target)]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("dancer.toml: ok: 16 joints, 15 bones")
+            && out.contains("left_elbow (parent left_shoulder; recognised: left elbow)"),
+        "{out}"
+    );
+    // With a run: which source bone would drive which bone, and still nothing written.
+    let c = clip(Scenario::Walk, 160, 120, 3);
+    let run = run_from_gt(d.path(), &c);
+    let o = mocap2d(&["retarget", s(&run), "--check", "--target", s(&target)]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("left_shoulder -> left_elbow <- chest -> elbow_l")
+            && out.contains("chest -> left_shoulder <- nothing"),
+        "{out}"
+    );
+    assert!(!run.join("retarget").exists());
+    // A joint off the image: exit 2, the line and the joint named.
+    std::fs::copy(characters("dancer.png"), d.path().join("dancer.png")).unwrap();
+    let bad = d.path().join("bad.toml");
+    let text = std::fs::read_to_string(&target).unwrap();
+    std::fs::write(&bad, text.replacen("y = 64.0", "y = 900.0", 1)).unwrap();
+    let o = mocap2d(&["retarget", "--check", "--target", s(&bad)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("bad.toml: line 27: joint \"head\"") && err.contains("outside"),
+        "{err}"
+    );
+    // Without --check, RUN is required.
+    let o = mocap2d(&["retarget", "--target", s(&target)]);
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -92,6 +92,67 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
     })
 }
 
+/// `mocap2d retarget --check --target CHARACTER [RUN]`: checks the character file as `retarget`
+/// and `render` do (the file, its image, and the mesh `render` builds from it) and says what it
+/// found, as printable lines: the joints, each with the body part mocap2d recognises in its name;
+/// with a run folder, which source bone would drive which bone. Writes nothing; every problem is
+/// the error `retarget` would give (exit 2, naming the file, line and joint).
+pub fn check_character(target: &Path, run: Option<&Path>) -> Result<Vec<String>> {
+    let character = read_character(target)?;
+    let rig = Rig::build(
+        &character.image,
+        &character.rest,
+        &character.skeleton,
+        &character.layers,
+        character.mesh_vertices,
+        1.0,
+        DeformOptions::default(),
+    )
+    .map_err(|m| Error::Character {
+        path: character.path.clone(),
+        line: None,
+        joint: None,
+        msg: format!("image {}: {m}", character.image_path.display()),
+    })?;
+    let (w, h) = character.image.dimensions();
+    let sk = &character.skeleton;
+    let mut lines = vec![format!(
+        "{}: ok: {} joints, {} bones; image {} ({w}x{h}); mesh {} vertices, {} triangles",
+        target.display(),
+        sk.len(),
+        sk.bones().len(),
+        character.image_path.display(),
+        rig.mesh.rest.len(),
+        rig.mesh.triangles.len()
+    )];
+    for (j, name) in sk.names.iter().enumerate() {
+        let part = retarget::mapping::recognise(name)
+            .map_or("not a recognised body part".into(), |p| {
+                format!("recognised: {p}")
+            });
+        let parent = sk
+            .parent(j)
+            .map_or("root".to_owned(), |p| format!("parent {}", sk.names[p]));
+        lines.push(format!(
+            "  line {}: {name} ({parent}; {part})",
+            character.lines.get(j).copied().unwrap_or(0)
+        ));
+    }
+    if let Some(run) = run {
+        let seeds_path = run.join("seeds.toml");
+        let (seeds, _) = crate::seed::read_seeds(&seeds_path)?;
+        let mapping = retarget::mapping::build(&character, &seeds.skeleton, &seeds_path)?;
+        lines.push(format!("bones (target <- source, {}):", run.display()));
+        lines.extend(
+            mapping
+                .describe(sk, &seeds.skeleton)
+                .into_iter()
+                .map(|l| format!("  {l}")),
+        );
+    }
+    Ok(lines)
+}
+
 /// Options of `mocap2d render`.
 #[derive(Debug, Clone)]
 pub struct RenderOptions {

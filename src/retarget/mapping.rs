@@ -219,6 +219,32 @@ pub fn recognise(name: &str) -> Option<Part> {
     }
 }
 
+impl std::fmt::Display for Part {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use Part::*;
+        let side = |s: &Side| match s {
+            Side::Left => "left",
+            Side::Right => "right",
+        };
+        match self {
+            Nose => write!(f, "nose"),
+            Pelvis => write!(f, "pelvis"),
+            Chest => write!(f, "chest"),
+            Neck => write!(f, "neck"),
+            Head => write!(f, "head"),
+            Eye(s) => write!(f, "{} eye", side(s)),
+            Ear(s) => write!(f, "{} ear", side(s)),
+            Shoulder(s) => write!(f, "{} shoulder", side(s)),
+            Elbow(s) => write!(f, "{} elbow", side(s)),
+            Wrist(s) => write!(f, "{} wrist", side(s)),
+            Hip(s) => write!(f, "{} hip", side(s)),
+            Knee(s) => write!(f, "{} knee", side(s)),
+            Ankle(s) => write!(f, "{} ankle", side(s)),
+            Toe(s) => write!(f, "{} toe", side(s)),
+        }
+    }
+}
+
 impl Part {
     /// The part its anatomical bone starts at (the elbow's is the shoulder).
     fn anatomical_parent(self) -> Option<Part> {
