@@ -557,7 +557,7 @@ pub use animate::{
     RetargetSummary, RETARGET_DIR,
 };
 pub use blend::blend;
-pub use export::{export, ExportOptions, ExportSummary};
+pub use export::{export, ExportOptions, ExportSummary, UserSkeleton};
 pub use guide::{guide, read_frame, GuideOptions, GuideSummary};
 pub use resume::{resume, ResumeOptions};
 pub use review::{review, ReviewSummary, REVIEW_DIR};

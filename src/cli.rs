@@ -129,6 +129,28 @@ pub struct ExportArgs {
     /// Spine, dragonbones: one key per frame on every channel (no key reduction).
     #[arg(long)]
     pub every_frame: bool,
+    /// Spine: your own Spine 4.2 skeleton JSON; --out gets a copy of it with the motion added as
+    /// one animation (their bones, slots, skins and other animations unchanged).
+    #[arg(long, value_name = "SKELETON.json")]
+    pub skeleton: Option<PathBuf>,
+    /// With --skeleton: the animation's name (an animation of that name is replaced).
+    #[arg(long, default_value = "mocap", requires = "skeleton")]
+    pub animation: String,
+    /// With --skeleton: their bone BONE follows the character's joint JOINT (repeatable);
+    /// bones named as a joint match without it.
+    #[arg(long, value_name = "BONE=JOINT", requires = "skeleton", value_parser = parse_bone_pair)]
+    pub bone: Vec<(String, String)>,
+}
+
+fn parse_bone_pair(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((a, b)) if !a.trim().is_empty() && !b.trim().is_empty() => {
+            Ok((a.trim().to_owned(), b.trim().to_owned()))
+        }
+        _ => Err(format!(
+            "{s:?}: expected THEIR_BONE=JOINT, e.g. upper_arm_l=elbow_l"
+        )),
+    }
 }
 
 impl ExportArgs {

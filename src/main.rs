@@ -351,7 +351,15 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 target: a.target,
                 out: a.out,
                 keys,
+                skeleton: a.skeleton.map(|path| app::UserSkeleton {
+                    path,
+                    animation: a.animation,
+                    bones: a.bone.into_iter().collect(),
+                }),
             })?;
+            for line in &s.matches {
+                eprintln!("  {line}");
+            }
             let files: Vec<String> = s.files.iter().map(|p| p.display().to_string()).collect();
             eprintln!(
                 "exported {} joints over {} frames as {} -> {}",

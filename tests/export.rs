@@ -945,3 +945,206 @@ fn dlc_labels_seed_the_tracker_like_a_seed_file() {
         assert!(!out.exists());
     }
 }
+
+/// An animator's own Spine 4.2 skeleton of another shape than the robot: a root, hips, a torso
+/// with a head, a cape and a two-bone left arm, one leg; a region attachment on the torso, an
+/// animation `idle` of their own, and keys in their order and layout.
+const THEIR_SKELETON: &str = r#"{
+  "skeleton": { "hash": "their-hash", "spine": "4.2.22", "x": -60, "y": 0, "width": 120, "height": 240, "images": "./images/" },
+  "bones": [
+    { "name": "root" },
+    { "name": "hips", "parent": "root", "y": 100 },
+    { "name": "torso", "parent": "hips", "length": 60, "rotation": 90 },
+    { "name": "head", "parent": "torso", "length": 30, "x": 60 },
+    { "name": "cape", "parent": "torso", "length": 40, "rotation": 170, "x": 40 },
+    { "name": "upper_arm_l", "parent": "torso", "length": 35, "rotation": -150, "x": 50 },
+    { "name": "forearm_l", "parent": "upper_arm_l", "length": 30, "rotation": 10, "x": 35 },
+    { "name": "leg", "parent": "hips", "length": 50, "rotation": -95 }
+  ],
+  "slots": [ { "name": "body", "bone": "torso", "attachment": "body" } ],
+  "skins": [ { "name": "default", "attachments": { "body": { "body": { "x": 30, "rotation": -90, "width": 40, "height": 80 } } } } ],
+  "animations": {
+    "idle": { "bones": { "head": { "rotate": [ { "value": 0 }, { "time": 1, "value": 10 } ] } } }
+  }
+}
+"#;
+
+#[test]
+fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, _) = retargeted_walk(d.path());
+    let rig = d.path().join("rig");
+    std::fs::create_dir_all(&rig).unwrap();
+    let theirs = rig.join("hero.json");
+    std::fs::write(&theirs, THEIR_SKELETON).unwrap();
+    image::RgbaImage::from_pixel(4, 4, image::Rgba([200, 30, 30, 255]))
+        .save(rig.join("body.png"))
+        .unwrap();
+    std::fs::write(
+        rig.join("hero.atlas"),
+        "body.png\nsize:4,4\nfilter:Linear,Linear\nbody\nbounds:0,0,4,4\n",
+    )
+    .unwrap();
+    let out = rig.join("hero-mocap.json");
+    let o = mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "spine",
+        "--skeleton",
+        s(&theirs),
+        "--animation",
+        "dance",
+        "--bone",
+        "hips=pelvis",
+        "--bone",
+        "torso=chest",
+        "--bone",
+        "upper_arm_l=elbow_l",
+        "--bone",
+        "forearm_l=wrist_l",
+        "--bone",
+        "leg=knee_l",
+        "--every-frame",
+        "--out",
+        s(&out),
+    ]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("upper_arm_l <- chest -> elbow_l (rotate)")
+            && err.contains("head <- neck -> head (rotate)")
+            && err.contains("left in their setup pose: root, cape"),
+        "{err}"
+    );
+    // Only the new animation is added: every other byte of their file is as it was.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let at = THEIR_SKELETON.find("\"animations\": {").unwrap() + "\"animations\": {".len();
+    assert!(text.starts_with(&THEIR_SKELETON[..at]), "{text}");
+    assert!(text.ends_with(&THEIR_SKELETON[at..]), "{text}");
+    let mut doc: Value = serde_json::from_str(&text).unwrap();
+    let added = doc["animations"]
+        .as_object_mut()
+        .unwrap()
+        .remove("dance")
+        .unwrap();
+    assert_eq!(doc, serde_json::from_str::<Value>(THEIR_SKELETON).unwrap());
+    // Their bones are turned and moved, never scaled or given attachments.
+    for (bone, tl) in added["bones"].as_object().unwrap() {
+        for k in tl.as_object().unwrap().keys() {
+            assert!(k == "rotate" || k == "translate", "{bone}: {k}");
+        }
+    }
+
+    // spine-core loads it with their atlas, both animations in it; posed at every frame, each
+    // matched bone has turned as the character's bone since the first frame.
+    let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
+    let Some(r) = node(
+        "spine_pose.mjs",
+        "@esotericsoftware/spine-core",
+        &[s(&out), s(&rig.join("hero.atlas")), &ts.join(","), "dance"],
+    ) else {
+        return;
+    };
+    let r: Value = serde_json::from_str(&r).unwrap();
+    assert_eq!(r["animations"], serde_json::json!(["dance", "idle"]));
+    assert_eq!(r["slots"][0]["region"], "body");
+    let bones = r["bones"].as_array().unwrap();
+    let bone = |n: &str| bones.iter().find(|b| b["name"] == n).unwrap();
+    let angle = |b: &Value, t: usize| -> f64 {
+        let f = |k: &str| b[k][t].as_f64().unwrap();
+        (f("tipY") - f("y")).atan2(f("tipX") - f("x")).to_degrees()
+    };
+    let series = anim.bone_series();
+    let joint = |n: &str| anim.skeleton.index_of(n).unwrap();
+    let turn = |t: usize, j: usize| {
+        let b = series.ending_at(j).unwrap();
+        -(series.angle[t][b] - series.angle[0][b]).to_degrees()
+    };
+    let wrap = |a: f64| (a + 540.0).rem_euclid(360.0) - 180.0;
+    let mut worst = 0.0f64;
+    let mut moved = 0.0f64;
+    for t in 0..anim.frames.len() {
+        for (theirs, ours) in [
+            ("torso", "chest"),
+            ("head", "head"),
+            ("upper_arm_l", "elbow_l"),
+            ("forearm_l", "wrist_l"),
+            ("leg", "knee_l"),
+            // The cape is theirs alone: it turns with the torso.
+            ("cape", "chest"),
+        ] {
+            let b = bone(theirs);
+            let got = wrap(angle(b, t) - angle(b, 0));
+            worst = worst.max(wrap(got - turn(t, joint(ours))).abs());
+            moved = moved.max(got.abs());
+        }
+    }
+    eprintln!(
+        "their skeleton: bone turns off by at most {worst:.5} degrees (moved up to {moved:.1})"
+    );
+    assert!(worst < 0.01, "{worst} degrees");
+    assert!(moved > 10.0, "{moved}");
+    // The hips follow the pelvis, scaled to their bones' size.
+    let (mut theirs_len, mut ours_len) = (0.0, 0.0);
+    for (n, j, l) in [
+        ("torso", "chest", 60.0),
+        ("head", "head", 30.0),
+        ("upper_arm_l", "elbow_l", 35.0),
+        ("forearm_l", "wrist_l", 30.0),
+        ("leg", "knee_l", 50.0),
+    ] {
+        let _ = n;
+        theirs_len += l;
+        ours_len += series.length[0][series.ending_at(joint(j)).unwrap()];
+    }
+    let k = theirs_len / ours_len;
+    let hips = bone("hips");
+    let pelvis = joint("pelvis");
+    let last = anim.frames.len() - 1;
+    let dx = hips["x"][last].as_f64().unwrap() - hips["x"][0].as_f64().unwrap();
+    let want = k * (anim.joints[last][pelvis][0] - anim.joints[0][pelvis][0]);
+    assert!((dx - want).abs() < 1e-3, "{dx} vs {want}");
+    assert!(want.abs() > 1.0, "the walk moves: {want}");
+
+    // Bad matches: exit 2, naming what there is.
+    let bad = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec![
+            "export",
+            s(&run),
+            "--format",
+            "spine",
+            "--skeleton",
+            s(&theirs),
+            "--out",
+        ];
+        let o2 = d.path().join("bad.json");
+        args.push(s(&o2));
+        args.extend(extra);
+        let o = mocap2d(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "{n:?} not in {err}");
+        }
+        assert!(!o2.exists());
+    };
+    bad(
+        &["--bone", "tail=pelvis"],
+        &["no bone \"tail\"", "upper_arm_l"],
+    );
+    bad(
+        &["--bone", "torso=spine"],
+        &["no joint \"spine\"", "elbow_l"],
+    );
+    std::fs::write(
+        &theirs,
+        THEIR_SKELETON
+            .replace("\"head\"", "\"skull\"")
+            .replace("4.2.22", "4.2.22"),
+    )
+    .unwrap();
+    bad(&[], &["no bone matches", "skull", "pelvis"]);
+    std::fs::write(&theirs, THEIR_SKELETON.replace("4.2.22", "3.8.99")).unwrap();
+    bad(&["--bone", "torso=chest"], &["Spine 3.8.99", "4.2"]);
+}

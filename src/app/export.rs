@@ -7,7 +7,9 @@ use super::{animate::hash_file, run_frame, RETARGET_DIR};
 use crate::character::{read_character, Character};
 use crate::error::{Error, Result};
 use crate::export::keys::Keys;
-use crate::export::{bvh, dlc, dragonbones, json, skin, spine, Animation, Format, Tracks};
+use crate::export::{
+    bvh, dlc, dragonbones, json, skin, spine, spine_rig, Animation, Format, Tracks,
+};
 use crate::retarget::files::{self, RetargetManifest};
 use std::path::{Path, PathBuf};
 
@@ -22,6 +24,19 @@ pub struct ExportOptions {
     pub out: PathBuf,
     /// How Spine and DragonBones key their channels.
     pub keys: Keys,
+    /// Spine: the animator's own skeleton to add the motion to, instead of a new skeleton.
+    pub skeleton: Option<UserSkeleton>,
+}
+
+/// The animator's own Spine skeleton as the export's target ([`crate::export::spine_rig`]).
+#[derive(Debug, Clone)]
+pub struct UserSkeleton {
+    /// Their Spine 4.2 skeleton JSON.
+    pub path: PathBuf,
+    /// The animation's name.
+    pub animation: String,
+    /// Their bone -> the character's joint it follows.
+    pub bones: std::collections::BTreeMap<String, String>,
 }
 
 /// What `export` wrote.
@@ -33,6 +48,8 @@ pub struct ExportSummary {
     pub joints: usize,
     /// Something the user should know (e.g. the JSON has no retargeted pose), or empty.
     pub note: String,
+    /// With a user skeleton: which of their bones follows which joint.
+    pub matches: Vec<String>,
 }
 
 /// `mocap2d export`.
@@ -44,6 +61,12 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
              (only --format spine and dragonbones take one)",
             t.display(),
             format.name()
+        )));
+    }
+    if let (Some(u), false) = (&opts.skeleton, format == Format::Spine) {
+        return Err(Error::Usage(format!(
+            "--skeleton {}: only --format spine adds the motion to a skeleton of yours",
+            u.path.display()
         )));
     }
     let out_dir = check_out(&opts.out)?;
@@ -70,8 +93,46 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
     };
 
     let mut note = String::new();
+    let mut matches = Vec::new();
     let mut files_out: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     let (frames, joints) = match format {
+        Format::Spine if opts.skeleton.is_some() => {
+            // Cannot fail: formats that need a pose loaded it above; this arm's guard.
+            let (anim, _) = pose.as_ref().expect("checked above");
+            let user = opts.skeleton.as_ref().expect("guard");
+            let text = std::fs::read_to_string(&user.path).map_err(|e| {
+                Error::Usage(format!(
+                    "--skeleton {}: cannot read it ({e}); give your Spine skeleton JSON",
+                    user.path.display()
+                ))
+            })?;
+            let r = spine_rig::add_animation(
+                &text,
+                &user.path,
+                anim,
+                &user.animation,
+                &user.bones,
+                opts.keys,
+            )?;
+            matches = r.matches;
+            files_out.push((opts.out.clone(), r.text.into_bytes()));
+            let from = user.path.parent().filter(|p| !p.as_os_str().is_empty());
+            let same_dir = match (
+                from.unwrap_or(Path::new(".")).canonicalize(),
+                out_dir.canonicalize(),
+            ) {
+                (Ok(a), Ok(b)) => a == b,
+                _ => false,
+            };
+            if !same_dir {
+                note = format!(
+                    "{} keeps the images and atlas paths of {}: put it beside them",
+                    opts.out.display(),
+                    user.path.display()
+                );
+            }
+            (anim.frames.len(), anim.skeleton.len())
+        }
         Format::Spine => {
             // Cannot fail: formats that need a pose loaded it above.
             let (anim, manifest) = pose.as_ref().expect("checked above");
@@ -148,6 +209,7 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
         frames,
         joints,
         note,
+        matches,
     })
 }
 

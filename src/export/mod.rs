@@ -21,6 +21,7 @@ pub mod json;
 pub mod keys;
 pub mod skin;
 pub mod spine;
+pub mod spine_rig;
 
 use crate::error::{Error, Result};
 use crate::retarget::P64;
