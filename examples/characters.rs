@@ -394,7 +394,10 @@ fn draw(d: &Design, sk: &Skel) -> (image::RgbaImage, String) {
     let facing = sk.facing;
     // One eye in profile, two facing the camera.
     let eyes: Vec<V> = if facing == 0.0 {
-        vec![[c[0] - 0.38 * r, c[1] - 0.1 * r], [c[0] + 0.38 * r, c[1] - 0.1 * r]]
+        vec![
+            [c[0] - 0.38 * r, c[1] - 0.1 * r],
+            [c[0] + 0.38 * r, c[1] - 0.1 * r],
+        ]
     } else {
         vec![[c[0] + facing * 0.45 * r, c[1] - 0.15 * r]]
     };
@@ -445,11 +448,11 @@ fn draw(d: &Design, sk: &Skel) -> (image::RgbaImage, String) {
     let _ = writeln!(t, "scale = \"fit\"");
     let _ = writeln!(t, "background = \"{}\"", d.background);
     let _ = writeln!(t, "mesh_vertices = 500");
-    for k in 0..sk.names.len() {
+    for (k, p) in j.iter().enumerate() {
         let _ = writeln!(
             t,
             "\n[[joint]]\nname = \"{}\"\nx = {:.1}\ny = {:.1}",
-            sk.names[k], j[k][0], j[k][1]
+            sk.names[k], p[0], p[1]
         );
         if let Some(p) = sk.parents[k] {
             let _ = writeln!(t, "parent = \"{}\"", sk.names[p]);

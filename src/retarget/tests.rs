@@ -151,7 +151,7 @@ fn place_fits_size_and_stands_on_the_source_floor() {
         .map(|p| Point::new((p[0] * 0.5 + 7.0) as f32, (p[1] * 0.5 + 3.0) as f32))
         .collect();
     let ident = Mapping::identity(&s);
-    let reference = reference_lengths(&[src.clone()], &ident);
+    let reference = reference_lengths(std::slice::from_ref(&src), &ident);
     let pl = place(&s, &rest, Scale::Fit, &ident, &src, &reference);
     assert!((pl.scale - 2.0).abs() < 1e-9);
     for (p, q) in rest.iter().zip(&src) {
