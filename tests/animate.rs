@@ -455,6 +455,29 @@ fn the_dance_with_coco_names_retargets_and_renders_onto_every_sample_character()
             "{name}: {}",
             String::from_utf8_lossy(&o.stderr)
         );
+        // And it exports: a Spine folder holding the JSON, its atlas and the image.
+        let folder = d.path().join(format!("spine-{name}"));
+        std::fs::create_dir_all(&folder).unwrap();
+        let json = folder.join(format!("{name}.json"));
+        let o = mocap2d(&["export", s(&run), "--format", "spine", "--out", s(&json)]);
+        assert!(
+            o.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let mut files: Vec<String> = std::fs::read_dir(&folder)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        files.sort();
+        assert_eq!(
+            files,
+            [
+                format!("{name}.atlas"),
+                format!("{name}.json"),
+                format!("{name}.png")
+            ]
+        );
         // Every frame is drawn, with the character on it (pixels unlike the backdrop).
         for f in 0..6 {
             let img = image::open(frames.join(format!("{f:06}.png")))
