@@ -533,3 +533,56 @@ fn retarget_check_checks_a_character_file_alone_and_writes_nothing() {
     let o = mocap2d(&["retarget", "--target", s(&target)]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// `[map]` with a virtual joint and `[bones]` with a source bone of the user's choice drive the
+/// bones they name: the printed mapping says so and the retargeted bone turns as that source
+/// bone does.
+#[test]
+fn map_and_bones_entries_choose_the_source_bones() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 160, 120, 20);
+    let run = run_from_gt(d.path(), &c);
+    std::fs::copy(characters("imp.png"), d.path().join("imp.png")).unwrap();
+    let text = std::fs::read_to_string(characters("imp.toml")).unwrap()
+        + "\n[map]\nhead = \"mid(neck, head)\"\n\n[bones]\nwrist_l = [\"chest\", \"wrist_l\"]\n";
+    let target = d.path().join("imp.toml");
+    std::fs::write(&target, text).unwrap();
+    let o = mocap2d(&["retarget", s(&run), "--target", s(&target)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("neck -> head <- neck -> mid(neck, head)")
+            && err.contains("elbow_l -> wrist_l <- chest -> wrist_l")
+            && err.contains("chest -> elbow_l <- chest -> elbow_l"),
+        "{err}"
+    );
+    // The forearm turns as the source's chest -> wrist line turns.
+    let bones = std::fs::read_to_string(run.join("retarget/bones.csv")).unwrap();
+    let got: Vec<f64> = bones
+        .lines()
+        .filter(|l| l.contains(",elbow_l->wrist_l,"))
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
+    let j = |n: &str| c.joint_names.iter().position(|x| x == n).unwrap();
+    let (chest, wrist) = (j("chest"), j("wrist_l"));
+    let want: Vec<f64> =
+        c.gt.iter()
+            .map(|f| {
+                let (a, b) = (f[chest], f[wrist]);
+                ((b.1 - a.1) as f64).atan2((b.0 - a.0) as f64)
+            })
+            .collect();
+    assert_eq!(got.len(), 20);
+    let mut moved = 0.0f64;
+    for t in 1..20 {
+        let d_got = got[t] - got[0];
+        let d_want = (want[t] - want[0] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        assert!(
+            (d_got - d_want).abs() < 1e-3,
+            "frame {t}: {d_got} vs {d_want}"
+        );
+        moved = moved.max(d_want.abs());
+    }
+    assert!(moved > 0.05, "the source line does not turn: {moved}");
+}
