@@ -411,6 +411,21 @@ fn dragonbones_folder_moved_elsewhere_loads_and_poses_every_joint_where_pose_csv
         "dragonbones runtime: mesh vertices on the first frame off by at most {worst_vertex:.4} px"
     );
     assert!(worst_vertex < 0.05, "mesh vertex off by {worst_vertex} px");
+    // y up (the Cocos default): the same mesh, mirrored into its axes.
+    let world = r["verticesYUp"][0][0].as_array().unwrap();
+    let mut worst_up_vertex = 0.0f64;
+    for (v, want) in mesh.rest.iter().enumerate() {
+        let p = [
+            world[2 * v].as_f64().unwrap() + origin[0],
+            origin[1] - world[2 * v + 1].as_f64().unwrap(),
+        ];
+        worst_up_vertex = worst_up_vertex.max((p[0] - want[0]).hypot(p[1] - want[1]));
+    }
+    eprintln!("dragonbones runtime: y up, mesh vertices off by at most {worst_up_vertex:.4} px");
+    assert!(
+        worst_up_vertex < 0.05,
+        "y up: mesh vertex off by {worst_up_vertex} px"
+    );
 }
 
 /// Linear interpolation at `t` (s) of Spine keys `keys` (field `field`; a missing `time` is 0).
