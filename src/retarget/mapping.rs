@@ -21,7 +21,9 @@
 //!    right_shoulder), head = the nose, or mid(ears), or mid(eyes)).
 //!
 //! A pair whose two points are the same (chest and neck both at the shoulders' midpoint) drives
-//! nothing.
+//! nothing. A head (or face point) driven through recognised names takes its source bone's
+//! angle only and keeps its rest length: the distance from the shoulders to the nose changes as
+//! the head turns or the subject turns her back, not as the head grows.
 
 use crate::character::Character;
 use crate::error::{Error, Result};
@@ -63,6 +65,10 @@ pub struct Mapping {
     pub bone: Vec<Option<(SourcePoint, SourcePoint)>>,
     /// `[target joint]`: the source point a root follows (`None` for non-roots).
     pub root: Vec<Option<SourcePoint>>,
+    /// `[target bone]`: true when the bone takes only its source bone's angle and keeps its
+    /// rest length (a head driven through face keypoints, whose distance from the shoulders
+    /// changes as the head turns, not as it grows).
+    pub keep_length: Vec<bool>,
 }
 
 impl Mapping {
@@ -77,6 +83,7 @@ impl Mapping {
             root: (0..skeleton.len())
                 .map(|j| skeleton.parent(j).is_none().then(|| SourcePoint(vec![j])))
                 .collect(),
+            keep_length: vec![false; skeleton.bones().len()],
         }
     }
 
@@ -96,6 +103,11 @@ impl Mapping {
                     // Cannot fail: `j` has a parent, so a bone ends at it.
                     let b = bones.iter().position(|&(_, c)| c == j).expect("bone");
                     let what = match &self.bone[b] {
+                        Some((a, z)) if self.keep_length[b] => format!(
+                            "{} -> {} (angle only)",
+                            a.describe(source),
+                            z.describe(source)
+                        ),
                         Some((a, z)) => {
                             format!("{} -> {}", a.describe(source), z.describe(source))
                         }
@@ -347,7 +359,9 @@ pub fn build(character: &Character, source: &Skeleton, source_path: &Path) -> Re
     }
     let bones = target.bones();
     let mut bone = Vec::with_capacity(bones.len());
+    let mut keep_length = Vec::with_capacity(bones.len());
     for &(p, c) in &bones {
+        let mut recognised = false;
         let cname = &target.names[c];
         let pair = if let Some((a, b)) = character.bones.get(cname) {
             let parse = |t: &str| {
@@ -364,6 +378,7 @@ pub fn build(character: &Character, source: &Skeleton, source_path: &Path) -> Re
         } else if let (Some(a), Some(b)) = (&named[p], &named[c]) {
             Some((a.clone(), b.clone()))
         } else {
+            recognised = true;
             let anatomical = recognise(cname)
                 .and_then(Part::anatomical_parent)
                 .and_then(|a| find(a, &source_parts));
@@ -374,7 +389,16 @@ pub fn build(character: &Character, source: &Skeleton, source_path: &Path) -> Re
                 _ => None,
             }
         };
-        bone.push(pair.filter(|(a, b)| a != b));
+        let pair = pair.filter(|(a, b)| a != b);
+        // A head (or face point) reached through recognised names: its source is a face
+        // keypoint, whose distance from the neck or shoulders says how the head turns, not how
+        // long it is.
+        let face = matches!(
+            recognise(cname),
+            Some(Part::Head | Part::Nose | Part::Eye(_) | Part::Ear(_))
+        );
+        keep_length.push(recognised && face && pair.is_some());
+        bone.push(pair);
     }
     let all = SourcePoint((0..source.len()).collect());
     let root = (0..target.len())
@@ -385,7 +409,11 @@ pub fn build(character: &Character, source: &Skeleton, source_path: &Path) -> Re
                 .then(|| own[j].clone().unwrap_or_else(|| all.clone()))
         })
         .collect();
-    let mapping = Mapping { bone, root };
+    let mapping = Mapping {
+        bone,
+        root,
+        keep_length,
+    };
     if mapping.driven() == 0 {
         return Err(err(
             None,

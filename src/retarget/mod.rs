@@ -158,13 +158,15 @@ pub fn skeleton_size(skeleton: &Skeleton, joints: &[P64]) -> f64 {
 }
 
 /// `[target bone]`: the median over the frames of `joints` of the length (px) of the bone's
-/// source bone; `None` for a bone nothing drives.
+/// source bone; `None` for a bone nothing drives or whose length is not followed
+/// ([`Mapping::keep_length`]).
 pub fn reference_lengths(joints: &[Vec<P64>], mapping: &Mapping) -> Vec<Option<f64>> {
     mapping
         .bone
         .iter()
-        .map(|m| {
-            m.as_ref().map(|(a, b)| {
+        .zip(&mapping.keep_length)
+        .map(|(m, &keep)| {
+            m.as_ref().filter(|_| !keep).map(|(a, b)| {
                 let l: Vec<f64> = joints.iter().map(|f| dist(a.at(f), b.at(f))).collect();
                 median(&l)
             })
@@ -334,7 +336,11 @@ pub fn retarget(
                 }
                 let l_ref = median(&l).max(1e-9);
                 for t in 0..frames {
-                    let ratio = (l[t] / l_ref).clamp(MIN_LENGTH_RATIO, MAX_LENGTH_RATIO);
+                    let ratio = if mapping.keep_length[b] {
+                        1.0
+                    } else {
+                        (l[t] / l_ref).clamp(MIN_LENGTH_RATIO, MAX_LENGTH_RATIO)
+                    };
                     length[t][b] = rest_len * ratio;
                     angle[t][b] = rest_angle + (a[t] - a[0]);
                 }

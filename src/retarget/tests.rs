@@ -242,6 +242,7 @@ fn bones_of_another_shape_are_driven_by_source_bones_and_the_rest_keep_their_ang
             None,
         ],
         root: vec![Some(pt(&[0, 1])), None, None, None],
+        keep_length: vec![false; 3],
     };
     let r = retarget(&motion, &target, &m, &rest_out, &RetargetOptions::default());
     for t in 0..frames {
@@ -263,6 +264,7 @@ fn bones_of_another_shape_are_driven_by_source_bones_and_the_rest_keep_their_ang
     let m2 = Mapping {
         bone: vec![Some((pt(&[0, 1]), pt(&[2, 3]))), None, None],
         root: m.root.clone(),
+        keep_length: vec![false; 3],
     };
     let r = retarget(
         &motion,
