@@ -243,6 +243,10 @@ pub struct RetargetArgs {
     /// Smooth the tracks first: median:N (N odd frames) or gaussian:S (σ in frames).
     #[arg(long, value_name = "KIND:N")]
     pub smooth: Option<crate::retarget::Smooth>,
+    /// Keep the character's size when the subject moves towards or away from the camera (bone
+    /// lengths follow relative to each other, not the whole body's growing or shrinking).
+    #[arg(long)]
+    pub keep_size: bool,
 }
 
 impl RetargetArgs {
@@ -254,6 +258,7 @@ impl RetargetArgs {
                 strength,
                 sigma_frames: self.cartoon_sigma,
             }),
+            keep_size: self.keep_size,
         }
     }
 }

@@ -223,6 +223,7 @@ fn cartoon_filter_anticipates_and_overshoots_a_step() {
         .collect();
     let run = run_from_gt(d.path(), &stepped);
     let opts = RetargetOptions {
+        keep_size: false,
         smooth: None,
         cartoon: Some(Cartoon {
             strength: 2.0,

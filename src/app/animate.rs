@@ -71,6 +71,7 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         cartoon_sigma_frames: options
             .cartoon
             .map_or(retarget::DEFAULT_CARTOON_SIGMA, |c| c.sigma_frames),
+        keep_size: options.keep_size,
     };
     let dir = run.join(RETARGET_DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;

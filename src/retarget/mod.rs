@@ -113,6 +113,10 @@ impl std::str::FromStr for Smooth {
 pub struct RetargetOptions {
     pub smooth: Option<Smooth>,
     pub cartoon: Option<Cartoon>,
+    /// Keep the character's size when the whole source grows or shrinks (the subject walking
+    /// towards or away from the camera): each frame's driven length ratios are divided by
+    /// their median over the bones, so only the bones' lengths relative to each other follow.
+    pub keep_size: bool,
 }
 
 /// Where the target's rest skeleton goes in the output frame: `out = image · scale + offset`.
@@ -321,6 +325,31 @@ pub fn retarget(
     let bone_of: Vec<Option<usize>> = (0..target.len())
         .map(|j| bones.iter().position(|&(_, c)| c == j))
         .collect();
+    // Each frame's size relative to the median sizes (1 unless `keep_size`): the median over
+    // the driven bones of their length ratios.
+    let reference = reference_lengths(&src, mapping);
+    let size: Vec<f64> = (0..frames)
+        .map(|t| {
+            if !opts.keep_size {
+                return 1.0;
+            }
+            let ratios: Vec<f64> = mapping
+                .bone
+                .iter()
+                .zip(&reference)
+                .filter_map(|(m, r)| {
+                    let ((a, b), r) = (m.as_ref()?, (*r)?);
+                    (r > 1e-9).then(|| dist(a.at(&src[t]), b.at(&src[t])) / r)
+                })
+                .collect();
+            let g = median(&ratios);
+            if g > 1e-9 {
+                g
+            } else {
+                1.0
+            }
+        })
+        .collect();
     // Parents first, so that an undriven bone can follow its parent bone's angle.
     for c in target.topo_order() {
         let Some(b) = bone_of[c] else { continue };
@@ -339,7 +368,7 @@ pub fn retarget(
                     let ratio = if mapping.keep_length[b] {
                         1.0
                     } else {
-                        (l[t] / l_ref).clamp(MIN_LENGTH_RATIO, MAX_LENGTH_RATIO)
+                        (l[t] / l_ref / size[t]).clamp(MIN_LENGTH_RATIO, MAX_LENGTH_RATIO)
                     };
                     length[t][b] = rest_len * ratio;
                     angle[t][b] = rest_angle + (a[t] - a[0]);
@@ -357,7 +386,7 @@ pub fn retarget(
             }
         }
     }
-    let (target_size, src_size) = driven_sizes(target, rest_out, &reference_lengths(&src, mapping));
+    let (target_size, src_size) = driven_sizes(target, rest_out, &reference);
     let ratio = if src_size > 1e-9 {
         target_size / src_size
     } else {

@@ -307,3 +307,68 @@ fn lengths_are_anchored_at_the_median_so_an_odd_first_frame_does_not_carry_over(
     assert!((r.length[0][0] - 60.0 * MIN_LENGTH_RATIO).abs() < 1e-9);
     assert_eq!(reference_lengths(&motion.joints, &m), vec![Some(100.0)]);
 }
+
+#[test]
+fn keep_size_holds_the_size_when_the_whole_source_zooms() {
+    // The wobbly motion, rigid, zoomed about (100, 200) by a factor going 1 -> 0.5 (the
+    // subject stepping back), with the chest bone also stretching by 20 % on its own.
+    let s = skel();
+    let base = wobbly_stretching(40, 0.0);
+    let zoom = |t: usize| 1.0 - 0.5 * t as f64 / 39.0;
+    let motion = Motion {
+        frames: base.frames.clone(),
+        joints: base
+            .joints
+            .iter()
+            .enumerate()
+            .map(|(t, f)| {
+                let mut f: Vec<P64> = f
+                    .iter()
+                    .map(|p| {
+                        [
+                            100.0 + zoom(t) * (p[0] - 100.0),
+                            200.0 + zoom(t) * (p[1] - 200.0),
+                        ]
+                    })
+                    .collect();
+                if t >= 20 {
+                    // chest (1) away from the pelvis (0) by 20 % more.
+                    f[1] = [
+                        f[0][0] + 1.2 * (f[1][0] - f[0][0]),
+                        f[0][1] + 1.2 * (f[1][1] - f[0][1]),
+                    ];
+                    f[2] = [
+                        f[1][0] + (base.joints[t][2][0] - base.joints[t][1][0]) * zoom(t),
+                        f[1][1] + (base.joints[t][2][1] - base.joints[t][1][1]) * zoom(t),
+                    ];
+                }
+                f
+            })
+            .collect(),
+    };
+    let m = Mapping::identity(&s);
+    let rest_out = motion.joints[0].clone();
+    let keep = RetargetOptions {
+        keep_size: true,
+        ..Default::default()
+    };
+    let r = retarget(&motion, &s, &m, &rest_out, &keep);
+    let free = retarget(&motion, &s, &m, &rest_out, &RetargetOptions::default());
+    let rest_len = |b: usize| {
+        let (p, c) = s.bones()[b];
+        dist(rest_out[p], rest_out[c])
+    };
+    let knee = s.bones().iter().position(|&(_, c)| c == 3).unwrap();
+    let chest = s.bones().iter().position(|&(_, c)| c == 1).unwrap();
+    let ref_ratio = |r: &Retargeted, t: usize, b: usize| r.length[t][b] / rest_len(b);
+    // Without it the knee bone shrinks with the zoom; with it, the knee keeps one length...
+    assert!((ref_ratio(&free, 0, knee) / ref_ratio(&free, 39, knee) - 2.0).abs() < 1e-9);
+    assert!((ref_ratio(&r, 0, knee) - ref_ratio(&r, 39, knee)).abs() < 1e-9);
+    // ... and the chest still stretches by its own 20 % against the other bones.
+    let rel = |t: usize| ref_ratio(&r, t, chest) / ref_ratio(&r, t, knee);
+    assert!(
+        (rel(30) / rel(10) - 1.2).abs() < 1e-9,
+        "{}",
+        rel(30) / rel(10)
+    );
+}
