@@ -3,12 +3,17 @@
 //!     cargo run --release --example characters [-- OUT_DIR]
 //!
 //! - `robot`: a boxy robot with the synthetic walker's proportions;
-//! - `imp`: other proportions: a big head, long arms, a short body and short legs.
+//! - `imp`: other proportions: a big head, long arms, a short body and short legs;
+//! - `dancer`: front-facing, with shoulders and hips, its joints named as the COCO keypoints
+//!   (`left_shoulder`, `right_hip`, ...) plus `pelvis`, `chest`, `neck` and `head`.
 //!
-//! Both stand in the pose of the bundled sample's seed frame (`clips/walk/joints.toml`: every bone
-//! at the same angle), so they retarget any `mocap2d synth walk` clip (seed 1) as they are. Each
-//! part is drawn from exact signed distances (anti-aliased), back to front: the `_l` limbs behind
-//! the body (layer -1), the `_r` limbs in front (layer 1), as the walker faces -x. Stripes across
+//! The robot and the imp stand in the pose of the bundled sample's seed frame
+//! (`clips/walk/joints.toml`: every bone at the same angle), so they retarget any `mocap2d synth
+//! walk` clip (seed 1) as they are: the `_l` limbs behind the body (layer -1), the `_r` limbs in
+//! front (layer 1), as the walker faces -x. The dancer faces the camera, arms hanging a little
+//! out from the body and legs slightly apart (its left on the image's right), arms in front of
+//! the body (layer 1) and legs behind it (layer -1), for front-facing footage such as a dance.
+//! Each part is drawn from exact signed distances (anti-aliased), back to front. Stripes across
 //! the limbs show how they stretch.
 
 use mocap2d::seed::read_seeds;
@@ -46,7 +51,7 @@ struct Design {
     /// Bone length per joint (character heights), 0 for the root.
     bone: [f32; 14],
     parts: Vec<Part>,
-    /// Head: radius (character heights), fill, eye colour.
+    /// Head: radius (character heights), fill, eye colour, boxy.
     head: (f32, [u8; 3], [u8; 3], bool),
     background: &'static str,
     comment: &'static str,
@@ -74,6 +79,45 @@ const PARENTS: [Option<usize>; 14] = [
 ];
 /// Draw layer of the bone ending at each joint.
 const LAYERS: [i32; 14] = [0, 0, 0, 0, -1, -1, 1, 1, -1, -1, -1, 1, 1, 1];
+
+/// A character's joints in its rest pose.
+struct Skel {
+    names: Vec<&'static str>,
+    parents: Vec<Option<usize>>,
+    layers: Vec<i32>,
+    /// Rest positions, px (any origin: the image is cropped around them).
+    joints: Vec<V>,
+    /// The head joint (the head is drawn around it).
+    head: usize,
+    /// Which way the face looks: -1 (to -x) or +1 in profile, 0 at the camera.
+    facing: f32,
+    /// Where the rest pose comes from (a comment line of the TOML).
+    rest: &'static str,
+}
+
+/// The walker's skeleton with `d`'s bone lengths at the source's bone angles `src`.
+fn walker_skel(d: &Design, src: &[V]) -> Skel {
+    let h = d.height_px;
+    // Forward kinematics at the source's angles with this design's lengths (px).
+    let mut j = vec![[0.0f32; 2]; 14];
+    for c in 1..14 {
+        let p = PARENTS[c].expect("non-root");
+        let a = (src[c][1] - src[p][1]).atan2(src[c][0] - src[p][0]);
+        j[c] = [
+            j[p][0] + d.bone[c] * h * a.cos(),
+            j[p][1] + d.bone[c] * h * a.sin(),
+        ];
+    }
+    Skel {
+        names: NAMES.to_vec(),
+        parents: PARENTS.to_vec(),
+        layers: LAYERS.to_vec(),
+        joints: j,
+        head: 3,
+        facing: -1.0,
+        rest: "the bone angles of clips/walk/joints.toml (the sample's seed frame)",
+    }
+}
 
 fn limb(
     from: usize,
@@ -191,6 +235,78 @@ fn imp() -> Design {
     }
 }
 
+/// The front-facing dancer: shoulders and hips, COCO names, arms in front of the body and legs
+/// behind it.
+fn dancer() -> (Design, Skel) {
+    let h = 400.0;
+    #[rustfmt::skip]
+    let spec: [(&str, Option<usize>, i32, V); 16] = [
+        ("pelvis", None, 0, [0.0, 0.0]),
+        ("chest", Some(0), 0, [0.0, -0.28]),
+        ("neck", Some(1), 0, [0.0, -0.34]),
+        ("head", Some(2), 0, [0.0, -0.425]),
+        ("left_shoulder", Some(1), 1, [0.105, -0.27]),
+        ("left_elbow", Some(4), 1, [0.127, -0.112]),
+        ("left_wrist", Some(5), 1, [0.143, 0.038]),
+        ("right_shoulder", Some(1), 1, [-0.105, -0.27]),
+        ("right_elbow", Some(7), 1, [-0.127, -0.112]),
+        ("right_wrist", Some(8), 1, [-0.143, 0.038]),
+        ("left_hip", Some(0), -1, [0.055, 0.02]),
+        ("left_knee", Some(10), -1, [0.063, 0.26]),
+        ("left_ankle", Some(11), -1, [0.063, 0.49]),
+        ("right_hip", Some(0), -1, [-0.055, 0.02]),
+        ("right_knee", Some(13), -1, [-0.063, 0.26]),
+        ("right_ankle", Some(14), -1, [-0.063, 0.49]),
+    ];
+    let skin = [232, 178, 140];
+    let top = [64, 150, 160];
+    let top_s = [44, 116, 126];
+    let legs = [70, 80, 150];
+    let legs_s = [52, 60, 118];
+    let shoe = [60, 50, 50];
+    let c = |from, to, r0, r1, f, st| limb(from, to, r0, r1, None, f, st);
+    let ball = |at: usize, r: f32, f| limb(at, at, r, r, None, f, f);
+    let mut parts = Vec::new();
+    // Legs, behind the body.
+    for (hip, knee, ankle) in [(10, 11, 12), (13, 14, 15)] {
+        parts.push(c(hip, knee, 0.036, 0.028, legs, legs_s));
+        parts.push(ball(knee, 0.03, legs_s));
+        parts.push(c(knee, ankle, 0.028, 0.022, legs, legs_s));
+        parts.push(ball(ankle, 0.03, shoe));
+    }
+    // Body: the neck, hips, a spindle torso, the shoulder line.
+    parts.push(c(1, 2, 0.022, 0.022, skin, skin));
+    parts.push(c(13, 10, 0.048, 0.048, legs_s, legs_s));
+    parts.push(c(0, 1, 0.05, 0.058, top, top_s).mid(0.5, 0.066));
+    parts.push(c(7, 4, 0.032, 0.032, top, top_s));
+    // Arms, in front of the body.
+    for (shoulder, elbow, wrist) in [(4, 5, 6), (7, 8, 9)] {
+        parts.push(c(shoulder, elbow, 0.027, 0.022, top, top_s));
+        parts.push(ball(elbow, 0.024, skin));
+        parts.push(c(elbow, wrist, 0.022, 0.018, skin, [214, 156, 118]));
+        parts.push(ball(wrist, 0.027, skin));
+    }
+    let design = Design {
+        name: "dancer",
+        height_px: h,
+        bone: [0.0; 14],
+        parts,
+        head: (0.075, skin, [250, 250, 245], false),
+        background: "#f4ece4",
+        comment: "A front-facing dancer: shoulders and hips, joints named as the COCO keypoints.",
+    };
+    let skel = Skel {
+        names: spec.iter().map(|s| s.0).collect(),
+        parents: spec.iter().map(|s| s.1).collect(),
+        layers: spec.iter().map(|s| s.2).collect(),
+        joints: spec.iter().map(|s| [s.3[0] * h, s.3[1] * h]).collect(),
+        head: 3,
+        facing: 0.0,
+        rest: "standing, facing the camera, arms hanging a little out from the body",
+    };
+    (design, skel)
+}
+
 fn main() -> anyhow::Result<()> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = std::env::args()
@@ -209,8 +325,16 @@ fn main() -> anyhow::Result<()> {
         seeds.skeleton.names.iter().map(String::as_str).eq(NAMES),
         "clips/walk/joints.toml has other joints"
     );
-    for d in [robot(), imp()] {
-        let (png, toml) = draw(&d, &src);
+    let mut all: Vec<(Design, Skel)> = [robot(), imp()]
+        .into_iter()
+        .map(|d| {
+            let sk = walker_skel(&d, &src);
+            (d, sk)
+        })
+        .collect();
+    all.push(dancer());
+    for (d, sk) in &all {
+        let (png, toml) = draw(d, sk);
         png.save(out.join(format!("{}.png", d.name)))?;
         std::fs::write(out.join(format!("{}.toml", d.name)), toml)?;
         println!("wrote {}/{}.png and .toml", out.display(), d.name);
@@ -218,18 +342,9 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-fn draw(d: &Design, src: &[V]) -> (image::RgbaImage, String) {
+fn draw(d: &Design, sk: &Skel) -> (image::RgbaImage, String) {
     let h = d.height_px;
-    // Forward kinematics at the source's angles with this design's lengths (px).
-    let mut j = [[0.0f32; 2]; 14];
-    for c in 1..14 {
-        let p = PARENTS[c].expect("non-root");
-        let a = (src[c][1] - src[p][1]).atan2(src[c][0] - src[p][0]);
-        j[c] = [
-            j[p][0] + d.bone[c] * h * a.cos(),
-            j[p][1] + d.bone[c] * h * a.sin(),
-        ];
-    }
+    let mut j = sk.joints.clone();
     let margin = 0.14 * h + 8.0;
     let (minx, maxx) = j
         .iter()
@@ -274,10 +389,18 @@ fn draw(d: &Design, src: &[V]) -> (image::RgbaImage, String) {
     }
     // Head.
     let (hr, fill, eye, boxy) = d.head;
-    let c = j[3];
+    let c = j[sk.head];
     let r = hr * h;
-    let facing = -1.0; // the walker faces -x
-    let eye_c = [c[0] + facing * 0.45 * r, c[1] - 0.15 * r];
+    let facing = sk.facing;
+    // One eye in profile, two facing the camera.
+    let eyes: Vec<V> = if facing == 0.0 {
+        vec![
+            [c[0] - 0.38 * r, c[1] - 0.1 * r],
+            [c[0] + 0.38 * r, c[1] - 0.1 * r],
+        ]
+    } else {
+        vec![[c[0] + facing * 0.45 * r, c[1] - 0.15 * r]]
+    };
     paint(
         &mut img,
         |p| {
@@ -293,7 +416,10 @@ fn draw(d: &Design, src: &[V]) -> (image::RgbaImage, String) {
             } else {
                 ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)).sqrt() - r
             };
-            let de = ((p[0] - eye_c[0]).powi(2) + (p[1] - eye_c[1]).powi(2)).sqrt();
+            let de = eyes
+                .iter()
+                .map(|e| ((p[0] - e[0]).powi(2) + (p[1] - e[1]).powi(2)).sqrt())
+                .fold(f32::MAX, f32::min);
             let colour = if de < 0.22 * r {
                 if de < 0.1 * r {
                     [20, 20, 30]
@@ -317,24 +443,21 @@ fn draw(d: &Design, src: &[V]) -> (image::RgbaImage, String) {
     let mut t = String::new();
     let _ = writeln!(t, "# {}", d.comment);
     let _ = writeln!(t, "# Generated by `cargo run --release --example characters`; see README, \"Target character file\".");
-    let _ = writeln!(
-        t,
-        "# Rest pose: the bone angles of clips/walk/joints.toml (the sample's seed frame).\n"
-    );
+    let _ = writeln!(t, "# Rest pose: {}.\n", sk.rest);
     let _ = writeln!(t, "image = \"{}.png\"", d.name);
     let _ = writeln!(t, "scale = \"fit\"");
     let _ = writeln!(t, "background = \"{}\"", d.background);
     let _ = writeln!(t, "mesh_vertices = 500");
-    for k in 0..14 {
+    for (k, p) in j.iter().enumerate() {
         let _ = writeln!(
             t,
             "\n[[joint]]\nname = \"{}\"\nx = {:.1}\ny = {:.1}",
-            NAMES[k], j[k][0], j[k][1]
+            sk.names[k], p[0], p[1]
         );
-        if let Some(p) = PARENTS[k] {
-            let _ = writeln!(t, "parent = \"{}\"", NAMES[p]);
-            if LAYERS[k] != 0 {
-                let _ = writeln!(t, "layer = {}", LAYERS[k]);
+        if let Some(p) = sk.parents[k] {
+            let _ = writeln!(t, "parent = \"{}\"", sk.names[p]);
+            if sk.layers[k] != 0 {
+                let _ = writeln!(t, "layer = {}", sk.layers[k]);
             }
         }
     }

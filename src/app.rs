@@ -492,12 +492,21 @@ pub fn report(run_dir: &Path) -> Result<crate::run::report::Report> {
 
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines
 /// (all joints first; when the ground truth has a `visible` column, the joints seen in the image
-/// and those hidden; then one line per joint when asked). Frames from the seed frame on.
-pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
+/// and those hidden; the labelled joints the run lacks, counted as misses; then one line per
+/// joint when asked). Frames from the seed frame on. No joint name in common: exit 2.
+pub fn eval(run_dir: &Path, gt_path: &Path, per_joint: bool) -> Result<Vec<String>> {
     use crate::eval::{summarise, PointError};
     let rows = crate::run::tracks::read_tracks(&run_dir.join("tracks.csv"))?;
     let first = rows.first().map_or(0, |r| r.frame);
-    let gt = crate::eval::read_gt(gt)?;
+    let gt = crate::eval::read_gt(gt_path)?;
+    // The run's joints: those of its first frame, in order.
+    let names: Vec<&str> = rows
+        .iter()
+        .take_while(|r| r.frame == first)
+        .map(|r| r.joint.as_str())
+        .collect();
+    crate::eval::check_shared(&names, &gt, run_dir, gt_path)?;
+    let missing = crate::eval::untracked_joints(&names, &gt, first);
     let errs = crate::eval::errors(
         rows.iter().map(|r| (r.frame, r.joint.as_str(), r.x, r.y)),
         &gt,
@@ -513,15 +522,22 @@ pub fn eval(run_dir: &Path, gt: &Path, per_joint: bool) -> Result<Vec<String>> {
         lines.push(format!("visible joints: {}", summarise(&seen)));
         lines.push(format!("hidden joints: {}", summarise(&hidden)));
     }
+    if !missing.is_empty() {
+        let list: Vec<String> = missing
+            .iter()
+            .map(|(n, k)| format!("{n} ({k} points)"))
+            .collect();
+        lines.push(format!(
+            "labelled but not in the run, counted as misses: {}",
+            list.join(", ")
+        ));
+    }
     if per_joint {
-        let mut names: Vec<&str> = Vec::new();
-        for r in &rows {
-            if r.frame != first {
-                break;
-            }
-            names.push(&r.joint);
-        }
-        for n in names {
+        let all = names
+            .iter()
+            .copied()
+            .chain(missing.iter().map(|(n, _)| n.as_str()));
+        for n in all {
             lines.push(format!("{n}: {}", summarise(&px(&|e| e.joint == n))));
         }
     }
@@ -537,11 +553,11 @@ mod review;
 mod segmented;
 mod serve;
 pub use animate::{
-    render, retarget, run_frame, RenderOptions, RenderSummary, Renderer, RetargetSummary,
-    RETARGET_DIR,
+    check_character, render, retarget, run_frame, RenderOptions, RenderSummary, Renderer,
+    RetargetSummary, RETARGET_DIR,
 };
 pub use blend::blend;
-pub use export::{export, ExportOptions, ExportSummary};
+pub use export::{export, ExportOptions, ExportSummary, UserSkeleton};
 pub use guide::{guide, read_frame, GuideOptions, GuideSummary};
 pub use resume::{resume, ResumeOptions};
 pub use review::{review, ReviewSummary, REVIEW_DIR};

@@ -15,12 +15,16 @@
 //! # parent = "chest"       # omitted for a root; the bone runs parent -> this joint
 //! # layer = 1              # draw order of the bone ending here (higher on top; default 0)
 //!
-//! [map]                    # only when names differ: target joint = source joint
-//! hip = "pelvis"
+//! [map]                    # optional: target joint = source joint, or a virtual one
+//! hip = "mid(left_hip, right_hip)"
+//!
+//! [bones]                  # optional: the bone ending at a target joint = a source bone
+//! elbow_l = ["left_shoulder", "left_elbow"]
 //! ```
 //! Positions follow [`crate::geom`]'s conventions. [`read_character`] checks the file on its own
-//! (syntax, keys, types, image, joints inside the image and on the character); [`Character::
-//! match_source`] checks it against the run's skeleton (every joint mapped, same parent links).
+//! (syntax, keys, types, image, joints inside the image and on the character);
+//! [`crate::retarget::mapping::build`] works out which source joints drive which bone (same
+//! names, `[map]`, `[bones]`, recognised body-part names).
 //! Every problem is an [`Error::Character`] naming the file, line and joint, with the fix: exit 2.
 
 use crate::error::{Error, Result};
@@ -77,8 +81,10 @@ pub struct Character {
     pub backdrop: Backdrop,
     /// About how many mesh vertices to use.
     pub mesh_vertices: usize,
-    /// `[map]`: target joint name -> source joint name.
+    /// `[map]`: target joint name -> source point (`name` or `mid(a, b)`).
     pub map: BTreeMap<String, String>,
+    /// `[bones]`: target joint name -> the source points the bone ending there runs between.
+    pub bones: BTreeMap<String, (String, String)>,
     /// 1-based line of each joint's `[[joint]]` header.
     pub lines: Vec<usize>,
     /// blake3 (hex) of the file's text.
@@ -95,6 +101,8 @@ struct RawCharacter {
     joint: Vec<RawJoint>,
     #[serde(default)]
     map: BTreeMap<String, String>,
+    #[serde(default)]
+    bones: BTreeMap<String, Vec<String>>,
 }
 
 #[derive(Deserialize)]
@@ -356,23 +364,45 @@ pub fn parse_character(text: &str, path: &Path) -> Result<Character> {
         }
         rest.push(Point::new(x, y));
     }
-    for (t, s) in &raw.map {
+    for t in raw.map.keys() {
         if skeleton.index_of(t).is_none() {
             return Err(err(
                 None,
                 None,
                 format!(
                     "[map] key {t:?} is not a joint of this file; keys are target joint names, \
-                     values source joint names"
+                     values source joints (`name` or `mid(a, b)`)"
                 ),
             ));
         }
-        if raw.map.values().filter(|v| *v == s).count() > 1 {
+    }
+    let mut bones = BTreeMap::new();
+    for (t, pair) in &raw.bones {
+        let j = skeleton.index_of(t);
+        if j.and_then(|j| skeleton.parent(j)).is_none() {
             return Err(err(
                 None,
                 None,
-                format!("[map] maps several joints to the source joint {s:?}; map each once"),
+                format!(
+                    "[bones] key {t:?} is not a joint of this file with a parent; keys name the \
+                     joint a bone ends at"
+                ),
             ));
+        }
+        match pair.as_slice() {
+            [a, b] => {
+                bones.insert(t.clone(), (a.clone(), b.clone()));
+            }
+            _ => {
+                return Err(err(
+                    None,
+                    None,
+                    format!(
+                        "[bones] {t}: give two source joints, from and to, e.g. \
+                         {t} = [\"left_shoulder\", \"left_elbow\"]"
+                    ),
+                ))
+            }
         }
     }
     Ok(Character {
@@ -386,75 +416,10 @@ pub fn parse_character(text: &str, path: &Path) -> Result<Character> {
         backdrop,
         mesh_vertices,
         map: raw.map,
+        bones,
         lines,
         blake3: blake3::hash(text.as_bytes()).to_hex().to_string(),
     })
-}
-
-impl Character {
-    /// For each target joint, the index of its source joint in `source` (the run's skeleton, from
-    /// `source_path`, named in messages). Every target joint must map to a source joint and every
-    /// source joint be mapped, with the same parent links.
-    pub fn match_source(&self, source: &Skeleton, source_path: &Path) -> Result<Vec<usize>> {
-        let err = |i: Option<usize>, msg: String| Error::Character {
-            path: self.path.clone(),
-            line: i.and_then(|i| self.lines.get(i).copied()),
-            joint: i.map(|i| self.skeleton.names[i].clone()),
-            msg,
-        };
-        let source_name = |t: &str| -> String { self.map.get(t).cloned().unwrap_or(t.to_owned()) };
-        let mut to_source = Vec::with_capacity(self.skeleton.len());
-        for (i, name) in self.skeleton.names.iter().enumerate() {
-            let s = source_name(name);
-            let Some(si) = source.index_of(&s) else {
-                return Err(err(
-                    Some(i),
-                    format!(
-                        "unmapped joint: the run ({}) has no joint {s:?}; add `{name} = \
-                         \"<source joint>\"` under [map] (source joints: {})",
-                        source_path.display(),
-                        source.names.join(", ")
-                    ),
-                ));
-            };
-            to_source.push(si);
-        }
-        for (si, sname) in source.names.iter().enumerate() {
-            if !to_source.contains(&si) {
-                return Err(err(
-                    None,
-                    format!(
-                        "unmapped joint: source joint {sname:?} of {} has no target joint; add \
-                         a [[joint]] for it (or a [map] entry naming it)",
-                        source_path.display()
-                    ),
-                ));
-            }
-        }
-        for (i, &si) in to_source.iter().enumerate() {
-            let tp = self.skeleton.parent(i).map(|p| to_source[p]);
-            let sp = source.parent(si);
-            if tp != sp {
-                let show = |p: Option<usize>| {
-                    p.map_or("no parent (a root)".to_owned(), |p| {
-                        format!("parent {:?}", source.names[p])
-                    })
-                };
-                return Err(err(
-                    Some(i),
-                    format!(
-                        "topology mismatch: in the run ({}) source joint {:?} has {}, here it \
-                         has {} (in source names); the target needs the source's skeleton",
-                        source_path.display(),
-                        source.names[si],
-                        show(sp),
-                        show(tp)
-                    ),
-                ));
-            }
-        }
-        Ok(to_source)
-    }
 }
 
 /// 1-based lines of the `[[joint]]` headers, in order.
@@ -588,25 +553,21 @@ mod tests {
     }
 
     #[test]
-    fn match_source_checks_names_and_topology() {
+    fn map_and_bones_are_checked_against_this_file() {
+        let m = message(&(OK.to_owned() + "\n[map]\nknee = \"left_knee\"\n"));
+        assert!(m.contains("[map] key \"knee\""), "{m}");
+        let m = message(&(OK.to_owned() + "\n[bones]\nhip = [\"a\", \"b\"]\n"));
+        assert!(
+            m.contains("[bones] key \"hip\"") && m.contains("with a parent"),
+            "{m}"
+        );
+        let m = message(&(OK.to_owned() + "\n[bones]\nhead = [\"a\"]\n"));
+        assert!(m.contains("two source joints"), "{m}");
         let d = tempfile::tempdir().unwrap();
-        let c = read_character(&write_fixture(d.path(), OK)).unwrap();
-        let src = Skeleton::new(vec!["head".into(), "hip".into()], vec![Some(1), None]);
-        assert_eq!(c.match_source(&src, Path::new("s")).unwrap(), vec![1, 0]);
-        let flat = Skeleton::new(vec!["head".into(), "hip".into()], vec![None, None]);
-        let m = c
-            .match_source(&flat, Path::new("s"))
-            .unwrap_err()
-            .to_string();
-        assert!(m.contains("topology mismatch"), "{m}");
-        let other = Skeleton::new(vec!["top".into(), "hip".into()], vec![Some(1), None]);
-        let m = c
-            .match_source(&other, Path::new("s"))
-            .unwrap_err()
-            .to_string();
-        assert!(m.contains("unmapped joint") && m.contains("[map]"), "{m}");
-        let mapped = OK.to_owned() + "\n[map]\nhead = \"top\"\n";
-        let c = read_character(&write_fixture(d.path(), &mapped)).unwrap();
-        assert_eq!(c.match_source(&other, Path::new("s")).unwrap(), vec![1, 0]);
+        let text = OK.to_owned()
+            + "\n[map]\nhip = \"mid(l, r)\"\n\n[bones]\nhead = [\"mid(l, r)\", \"nose\"]\n";
+        let c = read_character(&write_fixture(d.path(), &text)).unwrap();
+        assert_eq!(c.map["hip"], "mid(l, r)");
+        assert_eq!(c.bones["head"], ("mid(l, r)".to_owned(), "nose".to_owned()));
     }
 }

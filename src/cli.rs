@@ -113,12 +113,67 @@ pub struct ExportArgs {
     /// Output format.
     #[arg(long, value_enum)]
     pub format: crate::export::Format,
-    /// Target character file given to `mocap2d retarget` (spine only: its image is the skin).
+    /// Target character file given to `mocap2d retarget` (spine, dragonbones: its image is the
+    /// skin; default: the one RUN/retarget/retarget.toml names).
     #[arg(long)]
     pub target: Option<PathBuf>,
-    /// File to write (spine also writes the .atlas beside it).
+    /// File to write (spine also writes NAME.atlas and the image beside it; dragonbones
+    /// NAME_ske.json, NAME_tex.json and NAME_tex.png).
     #[arg(long)]
     pub out: PathBuf,
+    /// Spine, dragonbones: key each channel on as few frames as reproduce every frame within
+    /// this many px (and degrees for rotations).
+    #[arg(long, value_name = "PX", default_value_t = crate::export::keys::DEFAULT_TOLERANCE,
+          value_parser = parse_tolerance, conflicts_with = "every_frame")]
+    pub tolerance: f64,
+    /// Spine, dragonbones: one key per frame on every channel (no key reduction).
+    #[arg(long)]
+    pub every_frame: bool,
+    /// Spine: your own Spine 4.2 skeleton JSON; --out gets a copy of it with the motion added as
+    /// one animation (their bones, slots, skins and other animations unchanged).
+    #[arg(long, value_name = "SKELETON.json")]
+    pub skeleton: Option<PathBuf>,
+    /// With --skeleton: the animation's name (an animation of that name is replaced).
+    #[arg(long, default_value = "mocap", requires = "skeleton")]
+    pub animation: String,
+    /// With --skeleton: their bone BONE follows the character's joint JOINT (repeatable);
+    /// bones named as a joint match without it.
+    #[arg(long, value_name = "BONE=JOINT", requires = "skeleton", value_parser = parse_bone_pair)]
+    pub bone: Vec<(String, String)>,
+}
+
+fn parse_bone_pair(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((a, b)) if !a.trim().is_empty() && !b.trim().is_empty() => {
+            Ok((a.trim().to_owned(), b.trim().to_owned()))
+        }
+        _ => Err(format!(
+            "{s:?}: expected THEIR_BONE=JOINT, e.g. upper_arm_l=elbow_l"
+        )),
+    }
+}
+
+impl ExportArgs {
+    /// How the skeleton formats key their channels.
+    pub fn keys(&self) -> crate::export::keys::Keys {
+        if self.every_frame {
+            crate::export::keys::Keys::EveryFrame
+        } else {
+            crate::export::keys::Keys::Reduce {
+                tolerance: self.tolerance,
+            }
+        }
+    }
+}
+
+fn parse_tolerance(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 100.0 => Ok(v),
+        _ => Err(format!(
+            "{s:?}: expected a tolerance above 0 and at most 100 (px and degrees), e.g. 0.5; \
+             --every-frame keys every frame"
+        )),
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -167,11 +222,16 @@ pub struct GuideArgs {
 
 #[derive(Debug, clap::Args)]
 pub struct RetargetArgs {
-    /// Run folder written by `mocap2d track`.
-    pub run: PathBuf,
+    /// Run folder written by `mocap2d track` (optional with --check).
+    #[arg(required_unless_present = "check")]
+    pub run: Option<PathBuf>,
     /// Target character file (TOML; see README, "Target character file").
     #[arg(long)]
     pub target: PathBuf,
+    /// Only check the target character file (and, with RUN, show which source bone would drive
+    /// which bone); write nothing.
+    #[arg(long)]
+    pub check: bool,
     /// Cartoon animation filter strength A (0 = off; 1 to 3 shows): anticipation and
     /// follow-through on every bone's length and angle.
     #[arg(long, value_name = "A", value_parser = parse_strength)]
@@ -183,6 +243,10 @@ pub struct RetargetArgs {
     /// Smooth the tracks first: median:N (N odd frames) or gaussian:S (σ in frames).
     #[arg(long, value_name = "KIND:N")]
     pub smooth: Option<crate::retarget::Smooth>,
+    /// Keep the character's size when the subject moves towards or away from the camera (bone
+    /// lengths follow relative to each other, not the whole body's growing or shrinking).
+    #[arg(long)]
+    pub keep_size: bool,
 }
 
 impl RetargetArgs {
@@ -194,6 +258,7 @@ impl RetargetArgs {
                 strength,
                 sigma_frames: self.cartoon_sigma,
             }),
+            keep_size: self.keep_size,
         }
     }
 }

@@ -4,7 +4,9 @@
 //! point marked invisible there has no row), with an optional `visible` column: the share (0–1)
 //! of the joint drawn on top, which `mocap2d synth` writes, so that joints hidden in the image
 //! (below [`VISIBLE_FROM`]) can be told apart from seen ones. A labelled point with no tracked
-//! row counts as a miss.
+//! row counts as a miss, including every point of a labelled joint the run does not track
+//! ([`untracked_joints`] names them); a run and a ground truth with no joint name in common are
+//! refused ([`check_shared`]).
 
 use crate::error::{Error, Result};
 use std::collections::HashMap;
@@ -101,21 +103,19 @@ pub fn read_gt(path: &Path) -> Result<Vec<GtRow>> {
 }
 
 /// Per joint-frame errors of `tracked` (frame, joint, x, y) against `gt`, for ground-truth rows
-/// from `first_frame` on whose joint is tracked at all. A missing tracked row counts as infinite
-/// error. Returned in ground-truth order.
+/// from `first_frame` on. A missing tracked row counts as infinite error, as do all the points
+/// of a joint the run does not track. Returned in ground-truth order.
 pub fn errors<'a>(
     tracked: impl IntoIterator<Item = (u64, &'a str, f32, f32)>,
     gt: &[GtRow],
     first_frame: u64,
 ) -> Vec<PointError> {
     let mut by_key: HashMap<(u64, &str), (f32, f32)> = HashMap::new();
-    let mut joints = std::collections::HashSet::new();
     for (f, j, x, y) in tracked {
         by_key.insert((f, j), (x, y));
-        joints.insert(j);
     }
     gt.iter()
-        .filter(|g| g.frame >= first_frame && joints.contains(g.joint.as_str()))
+        .filter(|g| g.frame >= first_frame)
         .map(|g| {
             let px = match by_key.get(&(g.frame, g.joint.as_str())) {
                 Some(&(x, y)) => ((x - g.x).powi(2) + (y - g.y).powi(2)).sqrt(),
@@ -129,6 +129,52 @@ pub fn errors<'a>(
             }
         })
         .collect()
+}
+
+/// The joints labelled in `gt` from `first_frame` on that are not among `tracked` (the run's
+/// joint names), each with its number of labelled points, in ground-truth order: all their
+/// points count as misses.
+pub fn untracked_joints(tracked: &[&str], gt: &[GtRow], first_frame: u64) -> Vec<(String, usize)> {
+    let mut out: Vec<(String, usize)> = Vec::new();
+    for g in gt.iter().filter(|g| g.frame >= first_frame) {
+        if tracked.contains(&g.joint.as_str()) {
+            continue;
+        }
+        match out.iter_mut().find(|(n, _)| *n == g.joint) {
+            Some((_, k)) => *k += 1,
+            None => out.push((g.joint.clone(), 1)),
+        }
+    }
+    out
+}
+
+/// Refuses (exit 2) a ground truth `gt` (from `gt_path`) that shares no joint name with the run
+/// `run` (tracking the joints `tracked`): the message names both sides' joints.
+pub fn check_shared(tracked: &[&str], gt: &[GtRow], run: &Path, gt_path: &Path) -> Result<()> {
+    if gt.iter().any(|g| tracked.contains(&g.joint.as_str())) {
+        return Ok(());
+    }
+    let mut labelled: Vec<&str> = Vec::new();
+    for g in gt {
+        if !labelled.contains(&g.joint.as_str()) {
+            labelled.push(&g.joint);
+        }
+    }
+    let list = |v: &[&str]| {
+        if v.is_empty() {
+            "none".to_owned()
+        } else {
+            v.join(", ")
+        }
+    };
+    Err(Error::Usage(format!(
+        "{}: no joint name in common with the run {}: the ground truth labels {}; the run tracks \
+         {}. Give the ground truth of this clip, with the seed file's joint names",
+        gt_path.display(),
+        run.display(),
+        list(&labelled),
+        list(tracked)
+    )))
 }
 
 #[cfg(test)]
@@ -166,6 +212,55 @@ mod tests {
         let e = errors([(0u64, "a", 0.0f32, 0.0f32)], &gt, 0);
         assert_eq!(e[0].px, 0.0);
         assert!(e[1].px.is_infinite());
+    }
+
+    fn row(frame: u64, joint: &str) -> GtRow {
+        GtRow {
+            frame,
+            joint: joint.into(),
+            x: 1.0,
+            y: 1.0,
+            visible: None,
+        }
+    }
+
+    #[test]
+    fn a_labelled_joint_the_run_lacks_counts_as_misses_and_is_named() {
+        let gt = vec![
+            row(0, "a"),
+            row(0, "b"),
+            row(1, "a"),
+            row(1, "b"),
+            row(2, "b"),
+        ];
+        let e = errors([(0u64, "a", 1.0f32, 1.0f32), (1, "a", 1.0, 1.0)], &gt, 0);
+        assert_eq!(e.len(), 5, "every labelled point is compared");
+        assert_eq!(e.iter().filter(|e| e.px.is_infinite()).count(), 3);
+        assert_eq!(untracked_joints(&["a"], &gt, 0), vec![("b".to_owned(), 3)]);
+        assert_eq!(untracked_joints(&["a"], &gt, 2), vec![("b".to_owned(), 1)]);
+        assert!(untracked_joints(&["a", "b"], &gt, 0).is_empty());
+    }
+
+    #[test]
+    fn no_shared_joint_name_is_refused_naming_both_sides() {
+        let gt = vec![row(0, "nose"), row(0, "left_hip")];
+        let e = check_shared(
+            &["head", "pelvis"],
+            &gt,
+            Path::new("r.mocap"),
+            Path::new("gt.csv"),
+        )
+        .unwrap_err();
+        assert!(e.is_user_error());
+        let m = e.to_string();
+        assert!(
+            m.contains("gt.csv")
+                && m.contains("r.mocap")
+                && m.contains("labels nose, left_hip")
+                && m.contains("tracks head, pelvis"),
+            "{m}"
+        );
+        assert!(check_shared(&["nose"], &gt, Path::new("r"), Path::new("g")).is_ok());
     }
 
     #[test]

@@ -296,8 +296,19 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 a.out.display()
             );
         }
+        Command::Retarget(a) if a.check => {
+            for line in app::check_character(&a.target, a.run.as_deref())? {
+                out!("{line}");
+            }
+        }
         Command::Retarget(a) => {
-            let s = app::retarget(&a.run, &a.target, &a.options())?;
+            // Cannot fail: clap requires RUN unless --check (the arm above).
+            let run = a.run.clone().expect("RUN required without --check");
+            let s = app::retarget(&run, &a.target, &a.options())?;
+            eprintln!("bones (target <- source):");
+            for line in &s.mapping {
+                eprintln!("  {line}");
+            }
             eprintln!(
                 "retargeted {} joints over {} frames (scale {:.3} px per image px) -> {}",
                 s.joints,
@@ -333,12 +344,22 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             );
         }
         Command::Export(a) => {
+            let keys = a.keys();
             let s = app::export(&app::ExportOptions {
                 run: a.run,
                 format: a.format,
                 target: a.target,
                 out: a.out,
+                keys,
+                skeleton: a.skeleton.map(|path| app::UserSkeleton {
+                    path,
+                    animation: a.animation,
+                    bones: a.bone.into_iter().collect(),
+                }),
             })?;
+            for line in &s.matches {
+                eprintln!("  {line}");
+            }
             let files: Vec<String> = s.files.iter().map(|p| p.display().to_string()).collect();
             eprintln!(
                 "exported {} joints over {} frames as {} -> {}",

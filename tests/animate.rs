@@ -223,6 +223,7 @@ fn cartoon_filter_anticipates_and_overshoots_a_step() {
         .collect();
     let run = run_from_gt(d.path(), &stepped);
     let opts = RetargetOptions {
+        keep_size: false,
         smooth: None,
         cartoon: Some(Cartoon {
             strength: 2.0,
@@ -293,11 +294,16 @@ fn target_file_errors_exit_2_and_write_nothing() {
     let run = run_from_gt(d.path(), &c);
     std::fs::copy(characters("imp.png"), d.path().join("imp.png")).unwrap();
     let good = std::fs::read_to_string(characters("imp.toml")).unwrap();
-    let cases: [(&str, String, &str); 5] = [
+    let cases: [(&str, String, &str); 6] = [
         (
-            "topology",
-            good.replacen("parent = \"elbow_l\"", "parent = \"chest\"", 1),
-            "topology mismatch",
+            "map",
+            good.clone() + "\n[map]\nhead = \"mid(nose, chin)\"\n",
+            "[map] head = \"mid(nose, chin)\": the run has no joint \"nose\"",
+        ),
+        (
+            "bones",
+            good.clone() + "\n[bones]\nhead = [\"neck\", \"hat\"]\n",
+            "the run has no joint \"hat\"",
         ),
         ("image", good.replace("imp.png", "gone.png"), "not found"),
         (
@@ -307,8 +313,9 @@ fn target_file_errors_exit_2_and_write_nothing() {
         ),
         (
             "unmapped",
-            good.replace("\"toe_r\"", "\"toe_right\""),
-            "unmapped joint",
+            good.replace("name = \"", "name = \"x_")
+                .replace("parent = \"", "parent = \"x_"),
+            "no bone of this character is driven",
         ),
         (
             "key",
@@ -367,4 +374,218 @@ fn render_with_another_target_than_retarget_is_refused() {
         "{e}"
     );
     assert!(!d.path().join("frames").exists());
+}
+
+/// The real dance clip's seeds use the COCO keypoint names (left_hip, right_shoulder, ...) in a
+/// hip-rooted tree unlike either sample's: tracked on its first frames, the run retargets and
+/// renders onto every sample character in configs/characters/ with no map and no extra flags,
+/// and `retarget` says which source bone drives which target bone.
+#[test]
+#[cfg(feature = "ffmpeg")]
+fn the_dance_with_coco_names_retargets_and_renders_onto_every_sample_character() {
+    let dance = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/clips/dance");
+    if !dance.join("clip.mp4").exists() {
+        eprintln!(
+            "note: {} is absent; the COCO-names retarget was not run",
+            dance.display()
+        );
+        return;
+    }
+    let d = tempfile::tempdir().unwrap();
+    // A short slice: the first 6 frames as PNGs.
+    let slice = d.path().join("slice");
+    std::fs::create_dir_all(&slice).unwrap();
+    let mut source = mocap2d::decode::open(&dance.join("clip.mp4"), None).unwrap();
+    for f in 0..6 {
+        let img = source.next_frame().unwrap().unwrap();
+        img.save(slice.join(format!("frame{f}.png"))).unwrap();
+    }
+    let run = d.path().join("dance.mocap");
+    let o = mocap2d(&[
+        "track",
+        s(&slice),
+        "--seeds",
+        s(&dance.join("joints.toml")),
+        "--out",
+        s(&run),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut targets: Vec<PathBuf> = std::fs::read_dir(characters(""))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    targets.sort();
+    assert!(targets.len() >= 2, "{targets:?}");
+    for target in &targets {
+        let name = target.file_stem().unwrap().to_string_lossy().into_owned();
+        let o = mocap2d(&["retarget", s(&run), "--target", s(target)]);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{name}: {err}");
+        // The hips' midpoint carries the character; the arms follow the source's upper arms.
+        assert!(
+            err.contains("(root) follows mid(left_hip, right_hip)")
+                && err.contains("<- left_shoulder -> left_elbow")
+                && err.contains("<- right_elbow -> right_wrist")
+                // The head follows the nose's direction, not its distance.
+                && err.contains("head <- mid(left_shoulder, right_shoulder) -> nose (angle only)"),
+            "{name}: {err}"
+        );
+        let ch = read_character(target).unwrap();
+        let got = poses(&run, &ch.skeleton.names);
+        assert_eq!(got.len(), 6, "{name}");
+        // The character moves (her arms and head do over these frames) and stays in the frame.
+        let moved = (0..ch.skeleton.len())
+            .map(|j| (got[5][j] - got[0][j]).norm())
+            .fold(0.0f32, f32::max);
+        assert!(moved > 1.0, "{name}: nothing moves ({moved} px)");
+        for p in got.iter().flatten() {
+            assert!(p.x.is_finite() && p.y.is_finite(), "{name}: {p:?}");
+        }
+        let frames = d.path().join(format!("frames-{name}"));
+        let o = mocap2d(&[
+            "render",
+            s(&run),
+            "--target",
+            s(target),
+            "--frames-dir",
+            s(&frames),
+            "-q",
+        ]);
+        assert!(
+            o.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        // And it exports: a Spine folder holding the JSON, its atlas and the image.
+        let folder = d.path().join(format!("spine-{name}"));
+        std::fs::create_dir_all(&folder).unwrap();
+        let json = folder.join(format!("{name}.json"));
+        let o = mocap2d(&["export", s(&run), "--format", "spine", "--out", s(&json)]);
+        assert!(
+            o.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let mut files: Vec<String> = std::fs::read_dir(&folder)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        files.sort();
+        assert_eq!(
+            files,
+            [
+                format!("{name}.atlas"),
+                format!("{name}.json"),
+                format!("{name}.png")
+            ]
+        );
+        // Every frame is drawn, with the character on it (pixels unlike the backdrop).
+        for f in 0..6 {
+            let img = image::open(frames.join(format!("{f:06}.png")))
+                .unwrap()
+                .to_rgb8();
+            let bg = *img.get_pixel(0, 0);
+            let drawn = img.pixels().filter(|p| **p != bg).count();
+            assert!(
+                drawn > 2000,
+                "{name}: frame {f} shows {drawn} px of character"
+            );
+        }
+    }
+}
+
+#[test]
+fn retarget_check_checks_a_character_file_alone_and_writes_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let target = characters("dancer.toml");
+    let o = mocap2d(&["retarget", "--check", "--target", s(&target)]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("dancer.toml: ok: 16 joints, 15 bones")
+            && out.contains("left_elbow (parent left_shoulder; recognised: left elbow)"),
+        "{out}"
+    );
+    // With a run: which source bone would drive which bone, and still nothing written.
+    let c = clip(Scenario::Walk, 160, 120, 3);
+    let run = run_from_gt(d.path(), &c);
+    let o = mocap2d(&["retarget", s(&run), "--check", "--target", s(&target)]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("left_shoulder -> left_elbow <- chest -> elbow_l")
+            && out.contains("chest -> left_shoulder <- nothing"),
+        "{out}"
+    );
+    assert!(!run.join("retarget").exists());
+    // A joint off the image: exit 2, the line and the joint named.
+    std::fs::copy(characters("dancer.png"), d.path().join("dancer.png")).unwrap();
+    let bad = d.path().join("bad.toml");
+    let text = std::fs::read_to_string(&target).unwrap();
+    std::fs::write(&bad, text.replacen("y = 64.0", "y = 900.0", 1)).unwrap();
+    let o = mocap2d(&["retarget", "--check", "--target", s(&bad)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("bad.toml: line 27: joint \"head\"") && err.contains("outside"),
+        "{err}"
+    );
+    // Without --check, RUN is required.
+    let o = mocap2d(&["retarget", "--target", s(&target)]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+/// `[map]` with a virtual joint and `[bones]` with a source bone of the user's choice drive the
+/// bones they name: the printed mapping says so and the retargeted bone turns as that source
+/// bone does.
+#[test]
+fn map_and_bones_entries_choose_the_source_bones() {
+    let d = tempfile::tempdir().unwrap();
+    let c = clip(Scenario::Walk, 160, 120, 20);
+    let run = run_from_gt(d.path(), &c);
+    std::fs::copy(characters("imp.png"), d.path().join("imp.png")).unwrap();
+    let text = std::fs::read_to_string(characters("imp.toml")).unwrap()
+        + "\n[map]\nhead = \"mid(neck, head)\"\n\n[bones]\nwrist_l = [\"chest\", \"wrist_l\"]\n";
+    let target = d.path().join("imp.toml");
+    std::fs::write(&target, text).unwrap();
+    let o = mocap2d(&["retarget", s(&run), "--target", s(&target)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("neck -> head <- neck -> mid(neck, head)")
+            && err.contains("elbow_l -> wrist_l <- chest -> wrist_l")
+            && err.contains("chest -> elbow_l <- chest -> elbow_l"),
+        "{err}"
+    );
+    // The forearm turns as the source's chest -> wrist line turns.
+    let bones = std::fs::read_to_string(run.join("retarget/bones.csv")).unwrap();
+    let got: Vec<f64> = bones
+        .lines()
+        .filter(|l| l.contains(",elbow_l->wrist_l,"))
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
+    let j = |n: &str| c.joint_names.iter().position(|x| x == n).unwrap();
+    let (chest, wrist) = (j("chest"), j("wrist_l"));
+    let want: Vec<f64> =
+        c.gt.iter()
+            .map(|f| {
+                let (a, b) = (f[chest], f[wrist]);
+                ((b.1 - a.1) as f64).atan2((b.0 - a.0) as f64)
+            })
+            .collect();
+    assert_eq!(got.len(), 20);
+    let mut moved = 0.0f64;
+    for t in 1..20 {
+        let d_got = got[t] - got[0];
+        let d_want = (want[t] - want[0] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        assert!(
+            (d_got - d_want).abs() < 1e-3,
+            "frame {t}: {d_got} vs {d_want}"
+        );
+        moved = moved.max(d_want.abs());
+    }
+    assert!(moved > 0.05, "the source line does not turn: {moved}");
 }

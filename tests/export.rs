@@ -32,17 +32,25 @@ fn clip(scenario: Scenario, frames: u32) -> SynthClip {
 
 /// A run folder whose tracks are `clip`'s ground truth: tracks.csv, seeds.toml, run.toml.
 fn run_from_gt(dir: &Path, clip: &SynthClip) -> PathBuf {
+    run_from_gt_from(dir, clip, 0)
+}
+
+/// [`run_from_gt`] seeded on frame `first`: the tracks start there.
+fn run_from_gt_from(dir: &Path, clip: &SynthClip, first: usize) -> PathBuf {
     let run = dir.join("gt.mocap");
     std::fs::create_dir_all(&run).unwrap();
     let mut t = String::from("frame,joint,x,y,angle,score,status\n");
-    for (f, joints) in clip.gt.iter().enumerate() {
+    for (f, joints) in clip.gt.iter().enumerate().skip(first) {
         for (j, (name, (x, y))) in clip.joint_names.iter().zip(joints).enumerate() {
             let score = 0.5 + 0.01 * ((f + j) % 50) as f32;
             let _ = writeln!(t, "{f},{name},{x:.3},{y:.3},0.0000,{score:.3},ok");
         }
     }
     std::fs::write(run.join("tracks.csv"), t).unwrap();
-    std::fs::write(run.join("seeds.toml"), clip.seeds_toml()).unwrap();
+    let seeds = clip
+        .seeds_toml()
+        .replace("\nframe = 0\n", &format!("\nframe = {first}\n"));
+    std::fs::write(run.join("seeds.toml"), seeds).unwrap();
     let (w, h) = (clip.width(), clip.height());
     std::fs::write(
         run.join("run.toml"),
@@ -88,10 +96,14 @@ fn animation(run: &Path) -> Animation {
     }
 }
 
-/// A walk retargeted onto the robot with the cartoon filter (so the first frame is not the rest
-/// pose and bones stretch): the run folder, its animation and the target file.
+/// The frame the walk of [`retargeted_walk`] is seeded on.
+const SEED_FRAME: u64 = 6;
+
+/// A walk seeded on frame [`SEED_FRAME`], retargeted onto the robot with the cartoon filter (so
+/// the first frame is not the rest pose and bones stretch): the run folder, its animation and
+/// the target file.
 fn retargeted_walk(dir: &Path) -> (PathBuf, Animation, PathBuf) {
-    let run = run_from_gt(dir, &clip(Scenario::Walk, 36));
+    let run = run_from_gt_from(dir, &clip(Scenario::Walk, 42), SEED_FRAME as usize);
     let target = root().join("configs/characters/robot.toml");
     ok(&mocap2d(&[
         "retarget",
@@ -146,12 +158,35 @@ fn node(script: &str, package: &str, args: &[&str]) -> Option<String> {
     Some(String::from_utf8(o.stdout).unwrap())
 }
 
-/// Seconds of every exported frame, as written in the keys.
+/// Seconds of every exported frame on the animation's clock (0 on the first frame), as written
+/// in the keys.
 fn times(anim: &Animation) -> Vec<f64> {
     anim.frames
         .iter()
-        .map(|&f| (f as f64 / anim.fps * 1e6).round() / 1e6)
+        .map(|&f| ((f - anim.frames[0]) as f64 / anim.fps * 1e6).round() / 1e6)
         .collect()
+}
+
+/// Copies the files of folder `from` into a new folder `to` (no subfolders expected), then
+/// deletes `from`: what a user moving or zipping an export does.
+fn move_folder(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        assert!(e.file_type().unwrap().is_file(), "{}", e.path().display());
+        std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+    }
+    std::fs::remove_dir_all(from).unwrap();
+}
+
+/// The names of the files in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
 }
 
 /// For each joint, its position (runtime axes) at each time: a root joint's bone origin, else
@@ -198,22 +233,38 @@ fn worst_error(
 }
 
 #[test]
-fn spine_runtime_poses_every_joint_where_pose_csv_has_it() {
+fn spine_folder_moved_elsewhere_loads_and_poses_every_joint_where_pose_csv_has_it() {
     let d = tempfile::tempdir().unwrap();
     let (run, anim, target) = retargeted_walk(d.path());
-    std::fs::create_dir_all(d.path().join("out")).unwrap();
+    assert_eq!(anim.frames[0], SEED_FRAME);
     let out = d.path().join("out/robot.json");
+    std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+    // No --target: the export takes the character retarget.toml names. One key a frame, to
+    // check the pose exactly (the reduced keys are checked below).
     ok(&mocap2d(&[
         "export",
         s(&run),
         "--format",
         "spine",
-        "--target",
-        s(&target),
         "--out",
         s(&out),
+        "--every-frame",
     ]));
-    let atlas = out.with_extension("atlas");
+    // The folder holds the JSON, its atlas and the image, and names them relative to itself.
+    assert_eq!(
+        listing(&d.path().join("out")),
+        ["robot.atlas", "robot.json", "robot.png"]
+    );
+    assert_eq!(
+        std::fs::read(d.path().join("out/robot.png")).unwrap(),
+        std::fs::read(root().join("configs/characters/robot.png")).unwrap()
+    );
+    let atlas_text = std::fs::read_to_string(out.with_extension("atlas")).unwrap();
+    assert!(atlas_text.starts_with("robot.png\n"), "{atlas_text}");
+    let moved = d.path().join("elsewhere/zipped");
+    move_folder(&d.path().join("out"), &moved);
+    let (out, atlas) = (moved.join("robot.json"), moved.join("robot.atlas"));
+
     let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
     let Some(text) = node(
         "spine_pose.mjs",
@@ -229,6 +280,22 @@ fn spine_runtime_poses_every_joint_where_pose_csv_has_it() {
         r["version"]
     );
     assert_eq!(r["animation"], "mocap");
+    assert_eq!(r["images"], "./");
+    assert_eq!(r["pages"][0]["name"], "robot.png");
+    // Bone names are plain identifiers: the joints' names.
+    for b in r["bones"].as_array().unwrap() {
+        let n = b["name"].as_str().unwrap();
+        assert!(
+            n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'),
+            "{n}"
+        );
+    }
+    // The animation lasts from the seed frame (time 0) to the last frame.
+    let duration = r["duration"].as_f64().unwrap();
+    assert!(
+        (duration - (anim.frames.len() - 1) as f64 / anim.fps).abs() < 1e-6,
+        "{duration}"
+    );
     let origin = anim.floor_origin();
     let tracks = joint_tracks(&anim, r["bones"].as_array().unwrap());
     let worst = worst_error(&anim, &tracks, |q| {
@@ -257,13 +324,7 @@ fn spine_runtime_poses_every_joint_where_pose_csv_has_it() {
     assert_eq!(slots[0]["region"], "robot");
     let character = read_character(&target).unwrap();
     let m = read_manifest(&run.join("retarget/retarget.toml")).unwrap();
-    let mesh = export::skin::skin_mesh(
-        &character,
-        m.placement(),
-        &anim.joints[0],
-        &d.path().join("out"),
-    )
-    .unwrap();
+    let mesh = export::skin::skin_mesh(&character, m.placement(), &anim.joints[0]).unwrap();
     assert_eq!(slots[0]["vertices"], mesh.rest.len());
     assert_eq!(slots[0]["triangles"], mesh.triangles.len());
     assert!(mesh.rest.len() > 100);
@@ -279,51 +340,47 @@ fn spine_runtime_poses_every_joint_where_pose_csv_has_it() {
     }
     eprintln!("spine runtime: mesh vertices in the setup pose off by at most {worst_vertex:.4} px");
     assert!(worst_vertex < 0.05, "mesh vertex off by {worst_vertex} px");
-    let atlas_text = std::fs::read_to_string(&atlas).unwrap();
-    assert!(
-        atlas_text.starts_with("../../../"),
-        "the atlas page names the character image relative to the atlas: {atlas_text}"
-    );
-    let page = atlas
-        .parent()
-        .unwrap()
-        .join(atlas_text.lines().next().unwrap());
-    assert!(page.is_file(), "{}", page.display());
 }
 
 #[test]
-fn dragonbones_runtime_poses_every_joint_where_pose_csv_has_it() {
+fn dragonbones_folder_moved_elsewhere_loads_and_poses_every_joint_where_pose_csv_has_it() {
     let d = tempfile::tempdir().unwrap();
-    let (run, anim, _) = retargeted_walk(d.path());
-    let out = d.path().join("walk_ske.json");
+    let (run, anim, target) = retargeted_walk(d.path());
+    let out = d.path().join("db/walk_ske.json");
+    std::fs::create_dir_all(out.parent().unwrap()).unwrap();
     ok(&mocap2d(&[
         "export",
         s(&run),
         "--format",
         "dragonbones",
+        "--target",
+        s(&target),
         "--out",
         s(&out),
+        "--every-frame",
     ]));
+    assert_eq!(
+        listing(&d.path().join("db")),
+        ["walk_ske.json", "walk_tex.json", "walk_tex.png"]
+    );
+    let moved = d.path().join("elsewhere/db");
+    move_folder(&d.path().join("db"), &moved);
+    let (out, tex) = (moved.join("walk_ske.json"), moved.join("walk_tex.json"));
     // DragonBones' animation clock starts at the run's first frame.
-    let first = anim.frames[0] as f64 / anim.fps;
-    let ts: Vec<String> = times(&anim)
-        .iter()
-        .map(|t| (t - first).to_string())
-        .collect();
+    let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
     let Some(text) = node(
         "dragonbones_pose.mjs",
         "@cocos/dragonbones-js",
-        &[s(&out), &ts.join(",")],
+        &[s(&out), &ts.join(","), s(&tex)],
     ) else {
         return;
     };
     let r: Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
     assert_eq!(r["version"], "5.5");
     assert_eq!(r["animation"], "mocap");
-    assert_eq!(
-        r["slots"].as_array().unwrap().len(),
-        anim.skeleton.bones().len()
-    );
+    assert_eq!(r["slots"], serde_json::json!(["robot"]));
+    assert_eq!(r["texture"]["imagePath"], "walk_tex.png");
+    assert_eq!(r["meshes"][0]["texture"], "robot");
     let origin = anim.floor_origin();
     // y down (DragonBones' data axes) and y up (this runtime's Cocos default, which flips y).
     let down = joint_tracks(&anim, r["bonesYDown"].as_array().unwrap());
@@ -336,6 +393,199 @@ fn dragonbones_runtime_poses_every_joint_where_pose_csv_has_it() {
         "y down: worst joint error {worst_down} px"
     );
     assert!(worst_up < 0.5, "y up: worst joint error {worst_up} px");
+    // The mesh, deformed by the runtime's bones on the first frame, is where mocap2d puts it.
+    let character = read_character(&target).unwrap();
+    let m = read_manifest(&run.join("retarget/retarget.toml")).unwrap();
+    let mesh = export::skin::skin_mesh(&character, m.placement(), &anim.joints[0]).unwrap();
+    let world = r["verticesYDown"][0][0].as_array().unwrap();
+    assert_eq!(world.len(), 2 * mesh.rest.len());
+    let mut worst_vertex = 0.0f64;
+    for (v, want) in mesh.rest.iter().enumerate() {
+        let p = [
+            world[2 * v].as_f64().unwrap() + origin[0],
+            world[2 * v + 1].as_f64().unwrap() + origin[1],
+        ];
+        worst_vertex = worst_vertex.max((p[0] - want[0]).hypot(p[1] - want[1]));
+    }
+    eprintln!(
+        "dragonbones runtime: mesh vertices on the first frame off by at most {worst_vertex:.4} px"
+    );
+    assert!(worst_vertex < 0.05, "mesh vertex off by {worst_vertex} px");
+    // y up (the Cocos default): the same mesh, mirrored into its axes.
+    let world = r["verticesYUp"][0][0].as_array().unwrap();
+    let mut worst_up_vertex = 0.0f64;
+    for (v, want) in mesh.rest.iter().enumerate() {
+        let p = [
+            world[2 * v].as_f64().unwrap() + origin[0],
+            origin[1] - world[2 * v + 1].as_f64().unwrap(),
+        ];
+        worst_up_vertex = worst_up_vertex.max((p[0] - want[0]).hypot(p[1] - want[1]));
+    }
+    eprintln!("dragonbones runtime: y up, mesh vertices off by at most {worst_up_vertex:.4} px");
+    assert!(
+        worst_up_vertex < 0.05,
+        "y up: mesh vertex off by {worst_up_vertex} px"
+    );
+}
+
+/// Linear interpolation at `t` (s) of Spine keys `keys` (field `field`; a missing `time` is 0).
+fn spine_value_at(keys: &[Value], field: &str, t: f64) -> f64 {
+    let time = |k: &Value| k["time"].as_f64().unwrap_or(0.0);
+    let v = |k: &Value| k[field].as_f64().unwrap();
+    let after = keys.iter().position(|k| time(k) > t + 1e-9);
+    match after {
+        Some(0) => v(&keys[0]),
+        None => v(keys.last().unwrap()),
+        Some(i) => {
+            let (a, b) = (&keys[i - 1], &keys[i]);
+            let s = (t - time(a)) / (time(b) - time(a));
+            v(a) + s * (v(b) - v(a))
+        }
+    }
+}
+
+#[test]
+fn reduced_keys_start_at_zero_and_reproduce_every_frame_within_the_tolerance() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, _) = retargeted_walk(d.path());
+    let every = d.path().join("every.json");
+    let reduced = d.path().join("reduced.json");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "spine",
+        "--out",
+        s(&every),
+        "--every-frame",
+    ]));
+    // The default: 0.5 px and 0.5 degrees.
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "spine",
+        "--out",
+        s(&reduced),
+    ]));
+    let read =
+        |p: &Path| -> Value { serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap() };
+    let (e, r) = (read(&every), read(&reduced));
+    let lengths: std::collections::HashMap<String, f64> = e["bones"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| {
+            (
+                b["name"].as_str().unwrap().to_owned(),
+                b["length"].as_f64().unwrap_or(0.0),
+            )
+        })
+        .collect();
+    let ts = times(&anim);
+    let (mut all, mut kept) = (0usize, 0usize);
+    let mut worst = (0.0f64, 0.0f64); // px, degrees
+    for (bone, tl) in e["animations"]["mocap"]["bones"].as_object().unwrap() {
+        for (channel, fields) in [
+            ("translate", &["x", "y"][..]),
+            ("rotate", &["value"][..]),
+            ("scale", &["x"][..]),
+        ] {
+            let Some(ek) = tl[channel].as_array() else {
+                continue;
+            };
+            let rk = r["animations"]["mocap"]["bones"][bone][channel]
+                .as_array()
+                .unwrap_or_else(|| panic!("{bone} {channel} missing"));
+            // Every channel starts at time 0, the seed frame, though that is frame 6 of the clip.
+            assert_eq!(
+                rk[0]["time"].as_f64().unwrap_or(0.0),
+                0.0,
+                "{bone} {channel}"
+            );
+            assert_eq!(ek.len(), anim.frames.len());
+            all += ek.len();
+            kept += rk.len();
+            for (t, k) in ek.iter().enumerate() {
+                let diff: Vec<f64> = fields
+                    .iter()
+                    .map(|f| spine_value_at(rk, f, ts[t]) - k[*f].as_f64().unwrap())
+                    .collect();
+                match channel {
+                    "translate" => worst.0 = worst.0.max(diff[0].hypot(diff[1])),
+                    "rotate" => worst.1 = worst.1.max(diff[0].abs()),
+                    // A scale error moves the bone's tip by that share of its length.
+                    _ => worst.0 = worst.0.max(diff[0].abs() * lengths[bone.as_str()]),
+                }
+            }
+        }
+    }
+    eprintln!(
+        "spine keys: {kept} of {all} kept; worst {:.4} px, {:.4} degrees",
+        worst.0, worst.1
+    );
+    // Rounding of the written values adds at most 1e-4.
+    assert!(worst.0 <= 0.5 + 1e-3 && worst.1 <= 0.5 + 1e-3, "{worst:?}");
+    assert!(kept * 3 < all, "{kept} of {all} keys kept");
+    // Sanity: the check can fail, e.g. with the every-frame keys of a shifted clip.
+    let shifted = spine_value_at(
+        e["animations"]["mocap"]["bones"]["knee_l"]["rotate"]
+            .as_array()
+            .unwrap(),
+        "value",
+        ts[5],
+    ) - spine_value_at(
+        e["animations"]["mocap"]["bones"]["knee_l"]["rotate"]
+            .as_array()
+            .unwrap(),
+        "value",
+        ts[15],
+    );
+    assert!(shifted.abs() > 1.0, "the knee does not move: {shifted}");
+
+    // DragonBones: the same reduction, keys lasting until the next one.
+    let db = d.path().join("walk_ske.json");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "dragonbones",
+        "--out",
+        s(&db),
+    ]));
+    let doc = read(&db);
+    let arm = &doc["armature"][0];
+    assert_eq!(arm["animation"][0]["duration"], anim.frames.len());
+    for tl in arm["animation"][0]["bone"].as_array().unwrap() {
+        for ch in ["translateFrame", "rotateFrame", "scaleFrame"] {
+            if let Some(keys) = tl[ch].as_array() {
+                let total: u64 = keys.iter().map(|k| k["duration"].as_u64().unwrap()).sum();
+                assert_eq!(total as usize, anim.frames.len(), "{} {ch}", tl["name"]);
+                assert!(
+                    keys.len() < anim.frames.len(),
+                    "{} {ch} not reduced",
+                    tl["name"]
+                );
+            }
+        }
+    }
+    // The runtime poses the reduced DragonBones export close to the pose on every frame.
+    let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
+    let tex = d.path().join("walk_tex.json");
+    let Some(text) = node(
+        "dragonbones_pose.mjs",
+        "@cocos/dragonbones-js",
+        &[s(&db), &ts.join(","), s(&tex)],
+    ) else {
+        return;
+    };
+    let r: Value = serde_json::from_str(text.lines().last().unwrap()).unwrap();
+    let origin = anim.floor_origin();
+    let down = joint_tracks(&anim, r["bonesYDown"].as_array().unwrap());
+    let worst = worst_error(&anim, &down, |q| [q[0] + origin[0], q[1] + origin[1]]);
+    eprintln!("dragonbones runtime, reduced keys: worst joint error {worst:.4} px");
+    // Each joint sums the tolerances of the channels above it (at most 4 bones deep here).
+    assert!(worst < 4.0, "worst joint error {worst} px");
 }
 
 #[test]
@@ -398,7 +648,7 @@ fn invalid_combinations_exit_2_with_a_clear_message() {
     let robot = root().join("configs/characters/robot.toml");
     expect(
         &["export", s(&run), "--format", "spine", "--out", s(&out)],
-        &["--format spine needs --target"],
+        &["no retargeted pose", "mocap2d retarget"],
     );
     expect(
         &["export", s(&run), "--format", "fbx", "--out", s(&out)],
@@ -510,7 +760,7 @@ fn json_holds_tracks_and_pose_and_exports_are_deterministic() {
     // Same inputs, same bytes, for every format.
     for (f, extra) in [
         ("spine", vec!["--target", s(&target)]),
-        ("dragonbones", vec![]),
+        ("dragonbones", vec!["--target", s(&target)]),
         ("bvh", vec![]),
         ("dlc-csv", vec![]),
         ("json", vec![]),
@@ -709,4 +959,201 @@ fn dlc_labels_seed_the_tracker_like_a_seed_file() {
         }
         assert!(!out.exists());
     }
+}
+
+/// An animator's own Spine 4.2 skeleton of another shape than the robot: a root, hips, a torso
+/// with a head, a cape and a two-bone left arm, one leg; a region attachment on the torso, an
+/// animation `idle` of their own, and keys in their order and layout.
+const THEIR_SKELETON: &str = r#"{
+  "skeleton": { "hash": "their-hash", "spine": "4.2.22", "x": -60, "y": 0, "width": 120, "height": 240, "images": "./images/" },
+  "bones": [
+    { "name": "root" },
+    { "name": "hips", "parent": "root", "y": 100 },
+    { "name": "torso", "parent": "hips", "length": 60, "rotation": 90 },
+    { "name": "head", "parent": "torso", "length": 30, "x": 60 },
+    { "name": "cape", "parent": "torso", "length": 40, "rotation": 170, "x": 40 },
+    { "name": "upper_arm_l", "parent": "torso", "length": 35, "rotation": -150, "x": 50 },
+    { "name": "forearm_l", "parent": "upper_arm_l", "length": 30, "rotation": 10, "x": 35 },
+    { "name": "leg", "parent": "hips", "length": 50, "rotation": -95 }
+  ],
+  "slots": [ { "name": "body", "bone": "torso", "attachment": "body" } ],
+  "skins": [ { "name": "default", "attachments": { "body": { "body": { "x": 30, "rotation": -90, "width": 40, "height": 80 } } } } ],
+  "animations": {
+    "idle": { "bones": { "head": { "rotate": [ { "value": 0 }, { "time": 1, "value": 10 } ] } } }
+  }
+}
+"#;
+
+#[test]
+fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, _) = retargeted_walk(d.path());
+    let rig = d.path().join("rig");
+    std::fs::create_dir_all(&rig).unwrap();
+    let theirs = rig.join("hero.json");
+    std::fs::write(&theirs, THEIR_SKELETON).unwrap();
+    image::RgbaImage::from_pixel(4, 4, image::Rgba([200, 30, 30, 255]))
+        .save(rig.join("body.png"))
+        .unwrap();
+    std::fs::write(
+        rig.join("hero.atlas"),
+        "body.png\nsize:4,4\nfilter:Linear,Linear\nbody\nbounds:0,0,4,4\n",
+    )
+    .unwrap();
+    let out = rig.join("hero-mocap.json");
+    let o = mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "spine",
+        "--skeleton",
+        s(&theirs),
+        "--animation",
+        "dance",
+        "--bone",
+        "hips=pelvis",
+        "--bone",
+        "torso=chest",
+        "--bone",
+        "upper_arm_l=elbow_l",
+        "--bone",
+        "forearm_l=wrist_l",
+        "--bone",
+        "leg=knee_l",
+        "--every-frame",
+        "--out",
+        s(&out),
+    ]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("upper_arm_l <- chest -> elbow_l (rotate)")
+            && err.contains("head <- neck -> head (rotate)")
+            && err.contains("left in their setup pose: root, cape"),
+        "{err}"
+    );
+    // Only the new animation is added: every other byte of their file is as it was.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let at = THEIR_SKELETON.find("\"animations\": {").unwrap() + "\"animations\": {".len();
+    assert!(text.starts_with(&THEIR_SKELETON[..at]), "{text}");
+    assert!(text.ends_with(&THEIR_SKELETON[at..]), "{text}");
+    let mut doc: Value = serde_json::from_str(&text).unwrap();
+    let added = doc["animations"]
+        .as_object_mut()
+        .unwrap()
+        .remove("dance")
+        .unwrap();
+    assert_eq!(doc, serde_json::from_str::<Value>(THEIR_SKELETON).unwrap());
+    // Their bones are turned and moved, never scaled or given attachments.
+    for (bone, tl) in added["bones"].as_object().unwrap() {
+        for k in tl.as_object().unwrap().keys() {
+            assert!(k == "rotate" || k == "translate", "{bone}: {k}");
+        }
+    }
+
+    // spine-core loads it with their atlas, both animations in it; posed at every frame, each
+    // matched bone has turned as the character's bone since the first frame.
+    let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
+    let Some(r) = node(
+        "spine_pose.mjs",
+        "@esotericsoftware/spine-core",
+        &[s(&out), s(&rig.join("hero.atlas")), &ts.join(","), "dance"],
+    ) else {
+        return;
+    };
+    let r: Value = serde_json::from_str(&r).unwrap();
+    assert_eq!(r["animations"], serde_json::json!(["dance", "idle"]));
+    assert_eq!(r["slots"][0]["region"], "body");
+    let bones = r["bones"].as_array().unwrap();
+    let bone = |n: &str| bones.iter().find(|b| b["name"] == n).unwrap();
+    let angle = |b: &Value, t: usize| -> f64 {
+        let f = |k: &str| b[k][t].as_f64().unwrap();
+        (f("tipY") - f("y")).atan2(f("tipX") - f("x")).to_degrees()
+    };
+    let series = anim.bone_series();
+    let joint = |n: &str| anim.skeleton.index_of(n).unwrap();
+    let turn = |t: usize, j: usize| {
+        let b = series.ending_at(j).unwrap();
+        -(series.angle[t][b] - series.angle[0][b]).to_degrees()
+    };
+    let wrap = |a: f64| (a + 540.0).rem_euclid(360.0) - 180.0;
+    let mut worst = 0.0f64;
+    let mut moved = 0.0f64;
+    for t in 0..anim.frames.len() {
+        for (theirs, ours) in [
+            ("torso", "chest"),
+            ("head", "head"),
+            ("upper_arm_l", "elbow_l"),
+            ("forearm_l", "wrist_l"),
+            ("leg", "knee_l"),
+            // The cape is theirs alone: it turns with the torso.
+            ("cape", "chest"),
+        ] {
+            let b = bone(theirs);
+            let got = wrap(angle(b, t) - angle(b, 0));
+            worst = worst.max(wrap(got - turn(t, joint(ours))).abs());
+            moved = moved.max(got.abs());
+        }
+    }
+    eprintln!(
+        "their skeleton: bone turns off by at most {worst:.5} degrees (moved up to {moved:.1})"
+    );
+    assert!(worst < 0.01, "{worst} degrees");
+    assert!(moved > 10.0, "{moved}");
+    // The hips follow the pelvis, scaled to their bones' size.
+    let (mut theirs_len, mut ours_len) = (0.0, 0.0);
+    for (n, j, l) in [
+        ("torso", "chest", 60.0),
+        ("head", "head", 30.0),
+        ("upper_arm_l", "elbow_l", 35.0),
+        ("forearm_l", "wrist_l", 30.0),
+        ("leg", "knee_l", 50.0),
+    ] {
+        let _ = n;
+        theirs_len += l;
+        ours_len += series.length[0][series.ending_at(joint(j)).unwrap()];
+    }
+    let k = theirs_len / ours_len;
+    let hips = bone("hips");
+    let pelvis = joint("pelvis");
+    let last = anim.frames.len() - 1;
+    let dx = hips["x"][last].as_f64().unwrap() - hips["x"][0].as_f64().unwrap();
+    let want = k * (anim.joints[last][pelvis][0] - anim.joints[0][pelvis][0]);
+    assert!((dx - want).abs() < 1e-3, "{dx} vs {want}");
+    assert!(want.abs() > 1.0, "the walk moves: {want}");
+
+    // Bad matches: exit 2, naming what there is.
+    let bad = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec![
+            "export",
+            s(&run),
+            "--format",
+            "spine",
+            "--skeleton",
+            s(&theirs),
+            "--out",
+        ];
+        let o2 = d.path().join("bad.json");
+        args.push(s(&o2));
+        args.extend(extra);
+        let o = mocap2d(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "{n:?} not in {err}");
+        }
+        assert!(!o2.exists());
+    };
+    bad(
+        &["--bone", "tail=pelvis"],
+        &["no bone \"tail\"", "upper_arm_l"],
+    );
+    bad(
+        &["--bone", "torso=spine"],
+        &["no joint \"spine\"", "elbow_l"],
+    );
+    std::fs::write(&theirs, THEIR_SKELETON.replace("\"head\"", "\"skull\"")).unwrap();
+    bad(&[], &["no bone matches", "skull", "pelvis"]);
+    std::fs::write(&theirs, THEIR_SKELETON.replace("4.2.22", "3.8.99")).unwrap();
+    bad(&["--bone", "torso=chest"], &["Spine 3.8.99", "4.2"]);
 }

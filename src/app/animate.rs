@@ -27,6 +27,9 @@ pub struct RetargetSummary {
     pub joints: usize,
     /// Output px per image px.
     pub scale: f64,
+    /// Which source joints drive which target bone, one line each
+    /// ([`retarget::mapping::Mapping::describe`]).
+    pub mapping: Vec<String>,
 }
 
 /// `mocap2d retarget RUN --target CHARACTER`: writes `RUN/retarget/` (pose.csv, bones.csv,
@@ -36,7 +39,7 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
     let (width, height, fps) = run_frame(run)?;
     let seeds_path = run.join("seeds.toml");
     let (seeds, _) = crate::seed::read_seeds(&seeds_path)?;
-    let to_source = character.match_source(&seeds.skeleton, &seeds_path)?;
+    let mapping = retarget::mapping::build(&character, &seeds.skeleton, &seeds_path)?;
     let tracks_path = run.join("tracks.csv");
     let rows = crate::run::tracks::read_tracks(&tracks_path)?;
     let motion = retarget::motion_from_tracks(&rows, &seeds.skeleton, &tracks_path)?;
@@ -44,19 +47,12 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         &character.skeleton,
         &character.rest,
         character.scale,
-        &seeds.skeleton,
+        &mapping,
         &motion.joints[0],
-        &to_source,
+        &retarget::reference_lengths(&motion.joints, &mapping),
     );
     let rest_out: Vec<retarget::P64> = character.rest.iter().map(|&p| placement.apply(p)).collect();
-    let r = retarget::retarget(
-        &motion,
-        &seeds.skeleton,
-        &character.skeleton,
-        &to_source,
-        &rest_out,
-        options,
-    );
+    let r = retarget::retarget(&motion, &character.skeleton, &mapping, &rest_out, options);
     let names = &character.skeleton.names;
     let manifest = RetargetManifest {
         tool: "mocap2d".into(),
@@ -75,6 +71,7 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         cartoon_sigma_frames: options
             .cartoon
             .map_or(retarget::DEFAULT_CARTOON_SIGMA, |c| c.sigma_frames),
+        keep_size: options.keep_size,
     };
     let dir = run.join(RETARGET_DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
@@ -92,7 +89,69 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         frames: r.frames.len(),
         joints: names.len(),
         scale: placement.scale,
+        mapping: mapping.describe(&character.skeleton, &seeds.skeleton),
     })
+}
+
+/// `mocap2d retarget --check --target CHARACTER [RUN]`: checks the character file as `retarget`
+/// and `render` do (the file, its image, and the mesh `render` builds from it) and says what it
+/// found, as printable lines: the joints, each with the body part mocap2d recognises in its name;
+/// with a run folder, which source bone would drive which bone. Writes nothing; every problem is
+/// the error `retarget` would give (exit 2, naming the file, line and joint).
+pub fn check_character(target: &Path, run: Option<&Path>) -> Result<Vec<String>> {
+    let character = read_character(target)?;
+    let rig = Rig::build(
+        &character.image,
+        &character.rest,
+        &character.skeleton,
+        &character.layers,
+        character.mesh_vertices,
+        1.0,
+        DeformOptions::default(),
+    )
+    .map_err(|m| Error::Character {
+        path: character.path.clone(),
+        line: None,
+        joint: None,
+        msg: format!("image {}: {m}", character.image_path.display()),
+    })?;
+    let (w, h) = character.image.dimensions();
+    let sk = &character.skeleton;
+    let mut lines = vec![format!(
+        "{}: ok: {} joints, {} bones; image {} ({w}x{h}); mesh {} vertices, {} triangles",
+        target.display(),
+        sk.len(),
+        sk.bones().len(),
+        character.image_path.display(),
+        rig.mesh.rest.len(),
+        rig.mesh.triangles.len()
+    )];
+    for (j, name) in sk.names.iter().enumerate() {
+        let part = retarget::mapping::recognise(name)
+            .map_or("not a recognised body part".into(), |p| {
+                format!("recognised: {p}")
+            });
+        let parent = sk
+            .parent(j)
+            .map_or("root".to_owned(), |p| format!("parent {}", sk.names[p]));
+        lines.push(format!(
+            "  line {}: {name} ({parent}; {part})",
+            character.lines.get(j).copied().unwrap_or(0)
+        ));
+    }
+    if let Some(run) = run {
+        let seeds_path = run.join("seeds.toml");
+        let (seeds, _) = crate::seed::read_seeds(&seeds_path)?;
+        let mapping = retarget::mapping::build(&character, &seeds.skeleton, &seeds_path)?;
+        lines.push(format!("bones (target <- source, {}):", run.display()));
+        lines.extend(
+            mapping
+                .describe(sk, &seeds.skeleton)
+                .into_iter()
+                .map(|l| format!("  {l}")),
+        );
+    }
+    Ok(lines)
 }
 
 /// Options of `mocap2d render`.

@@ -1,11 +1,15 @@
 //! `mocap2d export RUN --format F --out FILE`: a run folder in the formats animators load
 //! ([`crate::export`]). Every input is checked before anything is written; files are written
-//! atomically.
+//! atomically. Spine and DragonBones also write the files their main file names (atlas, texture
+//! atlas, the character image copied) into `--out`'s folder, so that folder travels.
 
 use super::{animate::hash_file, run_frame, RETARGET_DIR};
-use crate::character::read_character;
+use crate::character::{read_character, Character};
 use crate::error::{Error, Result};
-use crate::export::{bvh, dlc, dragonbones, json, skin, spine, Animation, Format, Tracks};
+use crate::export::keys::Keys;
+use crate::export::{
+    bvh, dlc, dragonbones, json, skin, spine, spine_rig, Animation, Format, Tracks,
+};
 use crate::retarget::files::{self, RetargetManifest};
 use std::path::{Path, PathBuf};
 
@@ -14,9 +18,25 @@ use std::path::{Path, PathBuf};
 pub struct ExportOptions {
     pub run: PathBuf,
     pub format: Format,
-    /// The target character file (Spine: required, its image is the skin).
+    /// The target character file (Spine, DragonBones: its image is the skin; by default the one
+    /// `retarget.toml` names).
     pub target: Option<PathBuf>,
     pub out: PathBuf,
+    /// How Spine and DragonBones key their channels.
+    pub keys: Keys,
+    /// Spine: the animator's own skeleton to add the motion to, instead of a new skeleton.
+    pub skeleton: Option<UserSkeleton>,
+}
+
+/// The animator's own Spine skeleton as the export's target ([`crate::export::spine_rig`]).
+#[derive(Debug, Clone)]
+pub struct UserSkeleton {
+    /// Their Spine 4.2 skeleton JSON.
+    pub path: PathBuf,
+    /// The animation's name.
+    pub animation: String,
+    /// Their bone -> the character's joint it follows.
+    pub bones: std::collections::BTreeMap<String, String>,
 }
 
 /// What `export` wrote.
@@ -28,28 +48,26 @@ pub struct ExportSummary {
     pub joints: usize,
     /// Something the user should know (e.g. the JSON has no retargeted pose), or empty.
     pub note: String,
+    /// With a user skeleton: which of their bones follows which joint.
+    pub matches: Vec<String>,
 }
 
 /// `mocap2d export`.
 pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
     let format = opts.format;
-    match (&opts.target, format.needs_target()) {
-        (None, true) => {
-            return Err(Error::Usage(format!(
-                "--format {} needs --target CHARACTER.toml: the character file given to \
-                 `mocap2d retarget` (its image becomes the skin)",
-                format.name()
-            )))
-        }
-        (Some(t), false) => {
-            return Err(Error::Usage(format!(
-                "--target {}: --format {} does not use a character file; leave --target out \
-                 (only --format spine takes one)",
-                t.display(),
-                format.name()
-            )))
-        }
-        _ => {}
+    if let (Some(t), false) = (&opts.target, format.needs_target()) {
+        return Err(Error::Usage(format!(
+            "--target {}: --format {} does not use a character file; leave --target out \
+             (only --format spine and dragonbones take one)",
+            t.display(),
+            format.name()
+        )));
+    }
+    if let (Some(u), false) = (&opts.skeleton, format == Format::Spine) {
+        return Err(Error::Usage(format!(
+            "--skeleton {}: only --format spine adds the motion to a skeleton of yours",
+            u.path.display()
+        )));
     }
     let out_dir = check_out(&opts.out)?;
     let (width, height, fps) = run_frame(&opts.run)?;
@@ -75,48 +93,86 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
     };
 
     let mut note = String::new();
-    let mut files_out: Vec<(PathBuf, String)> = Vec::new();
+    let mut matches = Vec::new();
+    let mut files_out: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     let (frames, joints) = match format {
-        Format::Spine => {
-            // Cannot fail: formats that need a pose loaded it above, and `--target` was required.
-            let (anim, manifest) = pose.as_ref().expect("checked above");
-            let target = opts.target.as_ref().expect("checked above");
-            let character = read_character(target)?;
-            if character.blake3 != manifest.target_blake3 {
-                return Err(Error::RunFolder {
-                    path: retarget_dir.clone(),
-                    msg: format!(
-                        "was retargeted onto {} (or that file has changed since), not {}; run \
-                         `mocap2d retarget {} --target {}` first",
-                        manifest.target,
-                        target.display(),
-                        opts.run.display(),
-                        target.display()
-                    ),
-                });
+        Format::Spine if opts.skeleton.is_some() => {
+            // Cannot fail: formats that need a pose loaded it above; this arm's guard.
+            let (anim, _) = pose.as_ref().expect("checked above");
+            let user = opts.skeleton.as_ref().expect("guard");
+            let text = std::fs::read_to_string(&user.path).map_err(|e| {
+                Error::Usage(format!(
+                    "--skeleton {}: cannot read it ({e}); give your Spine skeleton JSON",
+                    user.path.display()
+                ))
+            })?;
+            let r = spine_rig::add_animation(
+                &text,
+                &user.path,
+                anim,
+                &user.animation,
+                &user.bones,
+                opts.keys,
+            )?;
+            matches = r.matches;
+            files_out.push((opts.out.clone(), r.text.into_bytes()));
+            let from = user.path.parent().filter(|p| !p.as_os_str().is_empty());
+            let same_dir = match (
+                from.unwrap_or(Path::new(".")).canonicalize(),
+                out_dir.canonicalize(),
+            ) {
+                (Ok(a), Ok(b)) => a == b,
+                _ => false,
+            };
+            if !same_dir {
+                note = format!(
+                    "{} keeps the images and atlas paths of {}: put it beside them",
+                    opts.out.display(),
+                    user.path.display()
+                );
             }
-            let mesh =
-                skin::skin_mesh(&character, manifest.placement(), &anim.joints[0], &out_dir)?;
-            let atlas_path = opts.out.with_extension("atlas");
-            files_out.push((opts.out.clone(), spine::to_spine(anim, &mesh)));
-            files_out.push((atlas_path, spine::atlas(&mesh)));
+            (anim.frames.len(), anim.skeleton.len())
+        }
+        Format::Spine => {
+            // Cannot fail: formats that need a pose loaded it above.
+            let (anim, manifest) = pose.as_ref().expect("checked above");
+            let character = target_character(opts, manifest, &retarget_dir)?;
+            let mesh = skin::skin_mesh(&character, manifest.placement(), &anim.joints[0])?;
+            files_out.push((
+                opts.out.clone(),
+                spine::to_spine(anim, &mesh, opts.keys).into(),
+            ));
+            files_out.push((opts.out.with_extension("atlas"), spine::atlas(&mesh).into()));
+            files_out.push((out_dir.join(&mesh.image), read_image(&character)?));
             (anim.frames.len(), anim.skeleton.len())
         }
         Format::DragonBones => {
             // Cannot fail: formats that need a pose loaded it above.
-            let (anim, _) = pose.as_ref().expect("checked above");
-            files_out.push((opts.out.clone(), dragonbones::to_dragonbones(anim)));
+            let (anim, manifest) = pose.as_ref().expect("checked above");
+            let character = target_character(opts, manifest, &retarget_dir)?;
+            let mesh = skin::skin_mesh(&character, manifest.placement(), &anim.joints[0])?;
+            let base = dragonbones_base(&opts.out);
+            let (tex, png) = (format!("{base}_tex.json"), format!("{base}_tex.png"));
+            files_out.push((
+                opts.out.clone(),
+                dragonbones::to_dragonbones(anim, &mesh, opts.keys).into(),
+            ));
+            files_out.push((
+                out_dir.join(&tex),
+                dragonbones::texture_atlas(&mesh, &png).into(),
+            ));
+            files_out.push((out_dir.join(&png), read_image(&character)?));
             (anim.frames.len(), anim.skeleton.len())
         }
         Format::Bvh => {
             // Cannot fail: formats that need a pose loaded it above.
             let (anim, _) = pose.as_ref().expect("checked above");
-            files_out.push((opts.out.clone(), bvh::to_bvh(anim)));
+            files_out.push((opts.out.clone(), bvh::to_bvh(anim).into()));
             (anim.frames.len(), anim.skeleton.len())
         }
         Format::DlcCsv => {
             let tracks = read_tracks(&opts.run)?;
-            files_out.push((opts.out.clone(), dlc::to_dlc_csv(&tracks)));
+            files_out.push((opts.out.clone(), dlc::to_dlc_csv(&tracks).into()));
             (tracks.frames.len(), tracks.skeleton.len())
         }
         Format::Json => {
@@ -129,20 +185,87 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
             }
             files_out.push((
                 opts.out.clone(),
-                json::to_json(width, height, fps, &tracks, pose_ref),
+                json::to_json(width, height, fps, &tracks, pose_ref).into(),
             ));
             (tracks.frames.len(), tracks.skeleton.len())
         }
     };
-    for (path, text) in &files_out {
-        crate::atomic::write(path, text.as_bytes())?;
+    // Two outputs at one path (e.g. `--out robot.png` beside the image copy) would overwrite
+    // each other: refused before anything is written.
+    for (i, (a, _)) in files_out.iter().enumerate() {
+        if files_out[..i].iter().any(|(b, _)| b == a) {
+            return Err(Error::Usage(format!(
+                "--out {}: the export also writes {} there; give --out another name",
+                opts.out.display(),
+                a.display()
+            )));
+        }
+    }
+    for (path, bytes) in &files_out {
+        crate::atomic::write(path, bytes)?;
     }
     Ok(ExportSummary {
         files: files_out.into_iter().map(|(p, _)| p).collect(),
         frames,
         joints,
         note,
+        matches,
     })
+}
+
+/// The target character of a Spine or DragonBones export: `--target`, or else the file
+/// `retarget.toml` names; either must be the file the run was retargeted onto, unchanged.
+fn target_character(
+    opts: &ExportOptions,
+    manifest: &RetargetManifest,
+    retarget_dir: &Path,
+) -> Result<Character> {
+    let (target, given) = match &opts.target {
+        Some(t) => (t.clone(), true),
+        None => (PathBuf::from(&manifest.target), false),
+    };
+    if !given && !target.is_file() {
+        return Err(Error::Usage(format!(
+            "--format {} puts the target character's image in the export, and {} was \
+             retargeted onto {}, which is not found from here; give --target CHARACTER.toml",
+            opts.format.name(),
+            opts.run.display(),
+            manifest.target
+        )));
+    }
+    let character = read_character(&target)?;
+    if character.blake3 != manifest.target_blake3 {
+        return Err(Error::RunFolder {
+            path: retarget_dir.to_owned(),
+            msg: format!(
+                "was retargeted onto {} (or that file has changed since), not {}; run \
+                 `mocap2d retarget {} --target {}` first",
+                manifest.target,
+                target.display(),
+                opts.run.display(),
+                target.display()
+            ),
+        });
+    }
+    Ok(character)
+}
+
+/// The character image's bytes, copied as they are into the export.
+fn read_image(character: &Character) -> Result<Vec<u8>> {
+    std::fs::read(&character.image_path).map_err(|e| Error::io(&character.image_path, e))
+}
+
+/// The DragonBones base name of `out`: its file name without `_ske.json` (or, failing that,
+/// without its extension), as in `walk_ske.json` -> `walk` (then `walk_tex.json`, `walk_tex.png`).
+fn dragonbones_base(out: &Path) -> String {
+    let name = out
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    if let Some(b) = name.strip_suffix("_ske.json").filter(|b| !b.is_empty()) {
+        return b.to_owned();
+    }
+    out.file_stem()
+        .map_or("mocap".into(), |s| s.to_string_lossy().into_owned())
 }
 
 /// The folder `--out` goes into; errors when it is missing or `out` is a folder.

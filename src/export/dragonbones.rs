@@ -3,37 +3,45 @@
 //! **Axes.** DragonBones is y down, in px, rotations in degrees clockwise: the screen's axes, so
 //! only the origin moves, to the floor point ([`Animation::floor_origin`]).
 //!
-//! **Bones** as in [`super::spine`]: one per root joint (named after it, at the joint), one per
-//! skeleton bone (named `parent->child`, from the parent joint towards the child, `length` = the
-//! bone's length on the first frame) whose parent is the bone ending at its start joint; an
-//! extra `root` bone when there are several root joints; parents listed first. Bones do not
-//! inherit scale (`inheritScale: false`): DragonBones then moves a child by its parent's full
-//! matrix (so a parent's scale x carries the child to the parent's scaled tip) and turns it by
-//! the parent's rotation alone, so a child's rotation is simply its angle from its parent bone.
+//! **Bones** as in [`super::spine`]: one per joint, named after it ([`super::spine::bone_names`]),
+//! a root joint's at the joint, any other's from its parent joint towards it (`length` = the
+//! bone's length on the first frame), its parent the parent joint's bone; an extra `root` bone
+//! when there are several root joints; parents listed first. Bones do not inherit scale
+//! (`inheritScale: false`): DragonBones then moves a child by its parent's full matrix (so a
+//! parent's scale x carries the child to the parent's scaled tip) and turns it by the parent's
+//! rotation alone, so a child's rotation is simply its angle from its parent bone.
 //!
-//! **Animation** `mocap`: one key a frame, each lasting one frame (`duration` 1; the animation's
-//! `duration` is the frame count), linear to the next (`tweenEasing` 0; the last key holds),
-//! values relative to the bone's setup transform (the first frame): `translateFrame` (px) on the
-//! root joints' bones, `rotateFrame` (degrees, continuous) and `scaleFrame` (x =
-//! length / setup length) on the others. The animation starts at the run's first frame
-//! (DragonBones time 0 = the seed frame), at the armature's `frameRate` (the run's fps).
+//! **Animation** `mocap`, from the run's first frame (DragonBones time 0), at the armature's
+//! `frameRate` (the run's fps): each channel keyed on as few frames as reproduce every frame
+//! within the tolerance of [`Keys`] (as in Spine; DragonBones tweens a rotation the short way
+//! round, so two rotation keys are never 180° or more apart), each key lasting until the next
+//! (`duration` in frames; the last lasts to the end: the animation's `duration` is the frame
+//! count), linear (`tweenEasing` 0; the last key holds), values relative to the bone's setup
+//! transform (the first frame): `translateFrame` (px) on the root joints' bones, `rotateFrame`
+//! (degrees, continuous) and `scaleFrame` (x = length / setup length) on the others.
 //!
-//! **Slots and skin.** One slot per bone (`parent->child`), drawn in bone order, with no display:
-//! this export carries the skeleton and its motion; attach images to the slots in DragonBones.
+//! **Skin.** One slot (named after the image) holding one weighted mesh display, the same mesh
+//! as the Spine export's ([`SkinMesh`]): vertices in armature px at the setup pose, each bound to
+//! one bone with weight 1 (`bonePose` gives each bone's setup matrix). Its texture is the one
+//! region of the texture atlas [`texture_atlas`] writes (`_tex.json`), whose image (`_tex.png`)
+//! is the character image copied beside it by `mocap2d export`.
 
-use super::{round, Animation};
+use super::keys::{self, Keys};
+use super::{round, Animation, SkinMesh};
 use serde_json::{json, Map, Value};
 
-/// The armature's and the animation's name.
+/// The armature's, the animation's and the texture atlas's name.
 pub const NAME: &str = "mocap";
 
-/// The DragonBones JSON text for `anim` (deterministic).
-pub fn to_dragonbones(anim: &Animation) -> String {
+/// The DragonBones JSON text (`_ske.json`) for `anim` with `mesh` as its skin, keyed as `keys`
+/// says (deterministic).
+pub fn to_dragonbones(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
     let sk = &anim.skeleton;
     let origin = anim.floor_origin();
     let series = anim.bone_series();
     let names = super::spine::bone_names(anim);
     let n = anim.frames.len();
+    let tol = keys.tolerance();
     let pos = |t: usize, j: usize| {
         let p = anim.joints[t][j];
         [p[0] - origin[0], p[1] - origin[1]]
@@ -54,12 +62,26 @@ pub fn to_dragonbones(anim: &Animation) -> String {
             1.0
         }
     };
-    let key = |t: usize, mut m: Map<String, Value>| {
-        m.insert("duration".into(), json!(1));
-        if t + 1 < n {
-            m.insert("tweenEasing".into(), json!(0));
-        }
-        Value::Object(m)
+    // The keys of one channel: `values[t]` on every frame, reduced, as `field = value` maps.
+    let channel = |values: &[Vec<f64>], fields: &[(&str, i32)], tol: f64, max_step: Option<f64>| {
+        let kept = keys::reduce(values, tol, max_step);
+        let frames: Vec<Value> = kept
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                let mut m = Map::new();
+                let next = kept.get(i + 1).copied().unwrap_or(n);
+                m.insert("duration".into(), json!(next - t));
+                if i + 1 < kept.len() {
+                    m.insert("tweenEasing".into(), json!(0));
+                }
+                for (k, (f, decimals)) in fields.iter().enumerate() {
+                    m.insert((*f).into(), json!(round(values[t][k], *decimals)));
+                }
+                Value::Object(m)
+            })
+            .collect();
+        Value::Array(frames)
     };
     let obj = |pairs: &[(&str, f64)]| -> Map<String, Value> {
         pairs
@@ -69,12 +91,15 @@ pub fn to_dragonbones(anim: &Animation) -> String {
     };
 
     let mut bones: Vec<Value> = Vec::new();
+    // Each joint's bone: its index in `bones` and its setup matrix (a, b, c, d, tx, ty).
+    let mut index_of_joint = vec![0usize; sk.len()];
+    let mut setup = vec![[0.0f64; 6]; sk.len()];
     if let Some(top) = &names.top {
         bones.push(json!({ "name": top }));
     }
-    let mut slots = Vec::new();
     let mut timelines = Vec::new();
     for j in sk.topo_order() {
+        index_of_joint[j] = bones.len();
         let mut b = Map::new();
         b.insert("name".into(), json!(names.of_joint[j]));
         let mut tl = Map::new();
@@ -85,20 +110,21 @@ pub fn to_dragonbones(anim: &Animation) -> String {
                     b.insert("parent".into(), json!(top));
                 }
                 let p0 = pos(0, j);
+                setup[j] = [1.0, 0.0, 0.0, 1.0, p0[0], p0[1]];
                 b.insert(
                     "transform".into(),
                     Value::Object(obj(&[("x", round(p0[0], 4)), ("y", round(p0[1], 4))])),
                 );
-                let keys = (0..n)
+                let values: Vec<Vec<f64>> = (0..n)
                     .map(|t| {
                         let p = pos(t, j);
-                        key(
-                            t,
-                            obj(&[("x", round(p[0] - p0[0], 4)), ("y", round(p[1] - p0[1], 4))]),
-                        )
+                        vec![p[0] - p0[0], p[1] - p0[1]]
                     })
                     .collect();
-                tl.insert("translateFrame".into(), Value::Array(keys));
+                tl.insert(
+                    "translateFrame".into(),
+                    channel(&values, &[("x", 4), ("y", 4)], tol, None),
+                );
             }
             Some(p) => {
                 // Cannot fail: this joint has a parent (this arm), so a bone ends at it.
@@ -108,6 +134,8 @@ pub fn to_dragonbones(anim: &Animation) -> String {
                 b.insert("inheritScale".into(), json!(false));
                 let r0 = local_deg(0, j);
                 let x = bone_of(p).map_or(0.0, |f| series.length[0][f]);
+                let (a, start) = (series.angle[0][bi], pos(0, p));
+                setup[j] = [a.cos(), a.sin(), -a.sin(), a.cos(), start[0], start[1]];
                 b.insert(
                     "transform".into(),
                     Value::Object(obj(&[
@@ -116,34 +144,86 @@ pub fn to_dragonbones(anim: &Animation) -> String {
                         ("skY", round(r0, 5)),
                     ])),
                 );
-                let rotate = (0..n)
-                    .map(|t| key(t, obj(&[("rotate", round(local_deg(t, j) - r0, 5))])))
-                    .collect();
-                let scale = (0..n)
-                    .map(|t| key(t, obj(&[("x", round(scale(t, bi), 6))])))
-                    .collect();
-                tl.insert("rotateFrame".into(), Value::Array(rotate));
-                tl.insert("scaleFrame".into(), Value::Array(scale));
-                slots.push(json!({ "name": names.of_joint[j], "parent": names.of_joint[j] }));
+                let rot: Vec<Vec<f64>> = (0..n).map(|t| vec![local_deg(t, j) - r0]).collect();
+                let sc: Vec<Vec<f64>> = (0..n).map(|t| vec![scale(t, bi)]).collect();
+                let scale_tol = tol / series.length[0][bi].max(1.0);
+                tl.insert(
+                    "rotateFrame".into(),
+                    channel(&rot, &[("rotate", 5)], tol, Some(180.0)),
+                );
+                tl.insert(
+                    "scaleFrame".into(),
+                    channel(&sc, &[("x", 6)], scale_tol, None),
+                );
             }
         }
         bones.push(Value::Object(b));
         timelines.push(Value::Object(tl));
     }
 
-    // Bounds of the joints on the first frame, DragonBones axes.
+    // The skin: one weighted mesh, each vertex on the bone ending at its bone's child joint.
+    let vertex_joint: Vec<usize> = mesh.bone.iter().map(|&b| series.bones[b].1).collect();
+    let mut used: Vec<usize> = vertex_joint.clone();
+    used.sort_by_key(|&j| index_of_joint[j]);
+    used.dedup();
+    let vertices: Vec<Value> = mesh
+        .rest
+        .iter()
+        .flat_map(|p| [p[0] - origin[0], p[1] - origin[1]])
+        .map(|v| json!(round(v, 3)))
+        .collect();
+    let uvs: Vec<Value> = mesh
+        .uvs
+        .iter()
+        .flat_map(|uv| [json!(round(uv[0], 6)), json!(round(uv[1], 6))])
+        .collect();
+    let triangles: Vec<Value> = mesh
+        .triangles
+        .iter()
+        .flat_map(|t| t.map(|v| json!(v)))
+        .collect();
+    let weights: Vec<Value> = vertex_joint
+        .iter()
+        .flat_map(|&j| [json!(1), json!(index_of_joint[j]), json!(1)])
+        .collect();
+    let bone_pose: Vec<Value> = used
+        .iter()
+        .flat_map(|&j| {
+            let m = setup[j];
+            std::iter::once(json!(index_of_joint[j])).chain(m.map(|v| json!(round(v, 6))))
+        })
+        .collect();
+    let root_bone = names
+        .top
+        .clone()
+        .unwrap_or_else(|| names.of_joint[sk.topo_order()[0]].clone());
+    let display = json!({
+        "type": "mesh",
+        "name": mesh.name,
+        "path": mesh.name,
+        "width": mesh.image_width,
+        "height": mesh.image_height,
+        "vertices": vertices,
+        "uvs": uvs,
+        "triangles": triangles,
+        "weights": weights,
+        "slotPose": [1, 0, 0, 1, 0, 0],
+        "bonePose": bone_pose,
+    });
+
+    // Bounds of the setup pose (mesh and joints), DragonBones axes.
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for j in 0..sk.len() {
-        let p = pos(0, j);
+    let pts = mesh
+        .rest
+        .iter()
+        .map(|p| [p[0] - origin[0], p[1] - origin[1]])
+        .chain((0..sk.len()).map(|j| pos(0, j)));
+    for p in pts {
         for k in 0..2 {
             lo[k] = lo[k].min(p[k]);
             hi[k] = hi[k].max(p[k]);
         }
     }
-    let skin_slots: Vec<Value> = slots
-        .iter()
-        .map(|s| json!({ "name": s["name"], "display": [] }))
-        .collect();
     let doc = json!({
         "frameRate": anim.fps,
         "name": NAME,
@@ -160,8 +240,8 @@ pub fn to_dragonbones(anim: &Animation) -> String {
                 "height": round(hi[1] - lo[1], 2),
             },
             "bone": bones,
-            "slot": slots,
-            "skin": [{ "name": "", "slot": skin_slots }],
+            "slot": [{ "name": mesh.name, "parent": root_bone }],
+            "skin": [{ "name": "", "slot": [{ "name": mesh.name, "display": [display] }] }],
             "animation": [{
                 "name": NAME,
                 "duration": n,
@@ -172,6 +252,23 @@ pub fn to_dragonbones(anim: &Animation) -> String {
         }],
     });
     // Cannot fail: the document is plain JSON values (no maps with non-string keys).
+    let mut s = serde_json::to_string(&doc).expect("JSON values");
+    s.push('\n');
+    s
+}
+
+/// The DragonBones texture atlas JSON (`_tex.json`) for `mesh`: the image `image` (its file
+/// name, beside the atlas) as one region named after the mesh.
+pub fn texture_atlas(mesh: &SkinMesh, image: &str) -> String {
+    let (w, h) = (mesh.image_width, mesh.image_height);
+    let doc = json!({
+        "name": NAME,
+        "imagePath": image,
+        "width": w,
+        "height": h,
+        "SubTexture": [{ "name": mesh.name, "x": 0, "y": 0, "width": w, "height": h }],
+    });
+    // Cannot fail: plain JSON values.
     let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
     s
@@ -269,9 +366,21 @@ mod tests {
             width: 100,
             height: 100,
         };
-        let doc: Value = serde_json::from_str(&to_dragonbones(&anim)).unwrap();
+        let mesh = SkinMesh {
+            name: "c".into(),
+            image: "c.png".into(),
+            image_width: 10,
+            image_height: 10,
+            uvs: vec![],
+            rest: vec![],
+            bone: vec![],
+            triangles: vec![],
+            hull: 0,
+        };
+        let doc: Value =
+            serde_json::from_str(&to_dragonbones(&anim, &mesh, Keys::EveryFrame)).unwrap();
         let arm = &doc["armature"][0];
-        assert_eq!(arm["bone"][1]["name"], "hip->knee");
+        assert_eq!(arm["bone"][1]["name"], "knee");
         assert_eq!(arm["animation"][0]["duration"], 5);
         for t in 0..anim.frames.len() {
             for (j, p) in db_fk(&doc, &anim, t).iter().enumerate() {

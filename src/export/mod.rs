@@ -1,6 +1,8 @@
-//! Exports to the formats animators load, one file a format: [`spine`] (Spine 4.2 JSON + atlas),
-//! [`dragonbones`] (DragonBones 5.5 JSON), [`bvh`] (Biovision hierarchy, 2D), [`dlc`]
-//! (DeepLabCut CSV) and [`json`] (mocap2d's own schema).
+//! Exports to the formats animators load: [`spine`] (Spine 4.2 JSON + atlas + image),
+//! [`dragonbones`] (DragonBones 5.5 `_ske.json` + `_tex.json` + `_tex.png`), [`bvh`] (Biovision
+//! hierarchy, 2D), [`dlc`] (DeepLabCut CSV) and [`json`] (mocap2d's own schema). Spine and
+//! DragonBones write a folder that travels: every file they name is written beside the main
+//! file and named by its file name alone; their keys are reduced by [`keys`].
 //!
 //! Each writer is a pure function from plain data to text; `mocap2d export`
 //! ([`crate::app::export`]) reads the run folder, checks it, and writes atomically. Positions come
@@ -16,8 +18,10 @@ pub mod bvh;
 pub mod dlc;
 pub mod dragonbones;
 pub mod json;
+pub mod keys;
 pub mod skin;
 pub mod spine;
+pub mod spine_rig;
 
 use crate::error::{Error, Result};
 use crate::retarget::P64;
@@ -28,9 +32,11 @@ use std::path::Path;
 /// An export format, as `--format` names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Format {
-    /// Spine 4.2 JSON (+ an .atlas beside it): bones, one weighted mesh, one animation.
+    /// Spine 4.2 JSON (+ an .atlas and the image beside it): bones, one weighted mesh, one
+    /// animation.
     Spine,
-    /// DragonBones 5.5 JSON: armature, bones, one animation.
+    /// DragonBones 5.5 (`_ske.json` + `_tex.json` + `_tex.png`): armature, bones, one weighted
+    /// mesh, one animation.
     #[value(name = "dragonbones")]
     DragonBones,
     /// Biovision hierarchy (2D: X/Y position and Z rotation channels), for Blender.
@@ -59,9 +65,10 @@ impl Format {
         matches!(self, Format::Spine | Format::DragonBones | Format::Bvh)
     }
 
-    /// True for formats that need the target character file (its image).
+    /// True for formats that carry the target character's image (its skin): they need the
+    /// target character file, from `--target` or as `retarget.toml` names it.
     pub fn needs_target(self) -> bool {
-        matches!(self, Format::Spine)
+        matches!(self, Format::Spine | Format::DragonBones)
     }
 }
 

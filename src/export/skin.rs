@@ -14,17 +14,11 @@ use crate::character::Character;
 use crate::deform::{DeformOptions, Rig};
 use crate::error::{Error, Result};
 use crate::retarget::{Placement, P64};
-use std::path::{Component, Path, PathBuf};
 
 /// The skin of `character`, placed by `placement` (from `retarget.toml`), in the pose `first`
-/// (output px, the character's joint order), its image named relative to `out_dir` (the folder
-/// the export is written to). Errors name the character file.
-pub fn skin_mesh(
-    character: &Character,
-    placement: Placement,
-    first: &[P64],
-    out_dir: &Path,
-) -> Result<SkinMesh> {
+/// (output px, the character's joint order). Its image is named by its file name alone: the
+/// exporter copies it beside the files that name it. Errors name the character file.
+pub fn skin_mesh(character: &Character, placement: Placement, first: &[P64]) -> Result<SkinMesh> {
     let err = |msg: String| Error::Character {
         path: character.path.clone(),
         line: None,
@@ -97,7 +91,10 @@ pub fn skin_mesh(
         .map_or("character".into(), |s| s.to_string_lossy().into_owned());
     Ok(SkinMesh {
         name,
-        image: relative_to(&character.image_path, out_dir),
+        image: character
+            .image_path
+            .file_name()
+            .map_or("character.png".into(), |s| s.to_string_lossy().into_owned()),
         image_width: iw,
         image_height: ih,
         uvs,
@@ -137,32 +134,6 @@ fn loop_area(mesh: &crate::deform::triangulate::Mesh, l: &[u32]) -> f64 {
     crate::deform::silhouette::signed_area(&pts).abs() as f64
 }
 
-/// `path` relative to the folder `dir`, `/`-separated (absolute when the two share no root).
-pub fn relative_to(path: &Path, dir: &Path) -> String {
-    let abs = |p: &Path| -> PathBuf {
-        let p = if p.as_os_str().is_empty() {
-            Path::new(".")
-        } else {
-            p
-        };
-        p.canonicalize().unwrap_or_else(|_| p.to_owned())
-    };
-    let (path, dir) = (abs(path), abs(dir));
-    let (a, b): (Vec<Component>, Vec<Component>) =
-        (path.components().collect(), dir.components().collect());
-    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
-    if common == 0 {
-        return path.to_string_lossy().replace('\\', "/");
-    }
-    let mut parts: Vec<String> = vec!["..".into(); b.len() - common];
-    parts.extend(
-        a[common..]
-            .iter()
-            .map(|c| c.as_os_str().to_string_lossy().into_owned()),
-    );
-    parts.join("/")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -177,20 +148,6 @@ mod tests {
         assert!(
             (q[0] - 3.0).abs() < 1e-12 && (q[1] - 15.0).abs() < 1e-12,
             "{q:?}"
-        );
-    }
-
-    #[test]
-    fn relative_paths_climb_out_of_the_folder() {
-        let d = tempfile::tempdir().unwrap();
-        std::fs::create_dir_all(d.path().join("a/b")).unwrap();
-        std::fs::create_dir_all(d.path().join("c")).unwrap();
-        std::fs::write(d.path().join("c/img.png"), b"x").unwrap();
-        let r = relative_to(&d.path().join("c/img.png"), &d.path().join("a/b"));
-        assert_eq!(r, "../../c/img.png");
-        assert_eq!(
-            relative_to(&d.path().join("c/img.png"), &d.path().join("c")),
-            "img.png"
         );
     }
 }

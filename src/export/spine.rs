@@ -5,26 +5,32 @@
 //! ([`Animation::floor_origin`]), and a screen angle θ (radians, clockwise, y down) becomes
 //! `−θ` in degrees. [`to_spine_point`] and [`from_spine_point`] are the two directions.
 //!
-//! **Bones.** One Spine bone per root joint, named after it, at the joint (translate keys), and
-//! one per bone of the skeleton, named `parent->child` as in `bones.csv`, starting at the parent
-//! joint and pointing at the child (`length` = the bone's length). A bone's parent is the Spine
-//! bone ending at its start joint (or the root joint's bone). Several root joints hang under an
-//! extra bone `root` at the origin. Bones are listed parents first.
+//! **Bones.** One Spine bone per joint, named after the joint as a plain identifier ([`bone_names`]:
+//! letters, digits and `_`): a root joint's bone sits at the joint (translate keys); any other
+//! joint's bone starts at its parent joint and points at it (`length` = the bone's length), so
+//! it is the bone that *ends* at the joint. A bone's parent is its parent joint's bone. Several
+//! root joints hang under an extra bone `root` at the origin. Bones are listed parents first.
 //!
-//! **Animation** `mocap`: one key a frame at `time = frame / fps` (so the animation's clock is
-//! the clip's; before the run's first frame the setup pose shows), linear. `rotate` values are
+//! **Animation** `mocap`: starts at time 0 on the run's first frame (`time = (frame − first) /
+//! fps`), linear between keys. Each channel (a root's translate, a bone's rotate, a bone's scale)
+//! is keyed on as few frames as reproduce every frame within the tolerance of [`Keys`] (default
+//! 0.5 px and 0.5°; a scale key's tolerance is that many px at the bone's tip), or on every frame
+//! with [`Keys::EveryFrame`]. `rotate` values are
 //! offsets (degrees) from the setup pose, `translate` (px) on the root joints' bones, and a bone's
 //! length change as `scale` x (length / setup length). Spine bones have no length timeline, and
 //! a parent's scale x would shear its children, so bones inherit `noScale` and each rotation key
 //! is solved against its parent's scale (Spine turns a child by the parent's scaled axes: the
 //! local angle `r` shows as `atan2(sin r, s·cos r)`; we key `r = atan2(s·sin δ, cos δ)` for the
-//! wanted angle δ). On every key the joints land where `pose.csv` has them.
+//! wanted angle δ). On every frame the joints land where `pose.csv` has them (within the key
+//! tolerance).
 //!
 //! **Skin.** One slot with one weighted mesh (the target character's image, meshed and skinned as
 //! `mocap2d render` does it, each vertex bound to one bone with weight 1, triangles in drawing
-//! order). [`atlas`] writes the matching one-region `.atlas`, whose page is the character image
-//! itself; `skeleton.images` points at the image's folder for the Spine editor's data import.
+//! order). [`atlas`] writes the matching one-region `.atlas`, whose page is the character image,
+//! copied beside the JSON by `mocap2d export` (`skeleton.images` is `./`, for the Spine editor's
+//! data import): the folder holds everything it names and can be moved or zipped.
 
+use super::keys::{self, Keys};
 use super::{round, wrap, Animation, SkinMesh};
 use crate::retarget::P64;
 use serde_json::{json, Map, Value};
@@ -50,36 +56,59 @@ pub fn to_spine_degrees(angle_rad: f64) -> f64 {
     -angle_rad.to_degrees()
 }
 
-/// Names of the Spine bones: for each joint, the bone that ends there (`parent->child`) or, for
-/// a root joint, the joint's own bone; plus the extra top bone when there are several roots.
+/// Names of the Spine (and DragonBones) bones: one per joint, plus the extra top bone when there
+/// are several roots.
 pub struct BoneNames {
-    /// `[joint]`: the Spine bone whose tip (or, for a root, whose origin) is the joint.
+    /// `[joint]`: the bone that ends at the joint (for a root: whose origin is the joint), named
+    /// after the joint as a plain identifier.
     pub of_joint: Vec<String>,
     /// The extra `root` bone's name, when the skeleton has several roots.
     pub top: Option<String>,
 }
 
-/// The Spine bone names for `anim`'s skeleton.
-pub fn bone_names(anim: &Animation) -> BoneNames {
-    let sk = &anim.skeleton;
-    let of_joint = (0..sk.len())
-        .map(|j| match sk.parent(j) {
-            None => sk.names[j].clone(),
-            Some(p) => format!("{}->{}", sk.names[p], sk.names[j]),
+/// `name` as a plain identifier: every character other than an ASCII letter, digit or `_`
+/// becomes `_`, and a leading digit gets a `_` before it.
+pub fn identifier(name: &str) -> String {
+    let mut s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
         })
         .collect();
-    let top = (sk.roots().len() > 1).then(|| {
-        let mut n = String::from("root");
-        while sk.index_of(&n).is_some() {
-            n.push('_');
+    if s.is_empty() || s.starts_with(|c: char| c.is_ascii_digit()) {
+        s.insert(0, '_');
+    }
+    s
+}
+
+/// The bone names for `anim`'s skeleton: each joint's name as an [`identifier`], made unique
+/// (`_2`, `_3`, ... after a name already taken), and `root` (made unique the same way) on top
+/// when there are several root joints.
+pub fn bone_names(anim: &Animation) -> BoneNames {
+    let sk = &anim.skeleton;
+    let mut taken = std::collections::BTreeSet::new();
+    let mut unique = |base: String| {
+        let mut n = base.clone();
+        let mut k = 2;
+        while taken.contains(&n) {
+            n = format!("{base}_{k}");
+            k += 1;
         }
+        taken.insert(n.clone());
         n
-    });
+    };
+    let of_joint: Vec<String> = sk.names.iter().map(|n| unique(identifier(n))).collect();
+    let top = (sk.roots().len() > 1).then(|| unique("root".into()));
     BoneNames { of_joint, top }
 }
 
-/// The Spine skeleton JSON for `anim` with `mesh` as its skin (text, deterministic).
-pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
+/// The Spine skeleton JSON for `anim` with `mesh` as its skin, keyed as `keys` says (text,
+/// deterministic).
+pub fn to_spine(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
     let sk = &anim.skeleton;
     let origin = anim.floor_origin();
     let series = anim.bone_series();
@@ -148,21 +177,29 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
         bones.push(Value::Object(b));
     }
 
-    // Animation: per-frame keys.
-    let time = |t: usize| round(anim.frames[t] as f64 / anim.fps, 6);
+    // Animation: from time 0, each channel keyed within the tolerance.
+    let time = |t: usize| round((anim.frames[t] - anim.frames[0]) as f64 / anim.fps, 6);
+    let tol = keys.tolerance();
+    let n = anim.frames.len();
     let mut timelines = Map::new();
     for j in sk.topo_order() {
         let mut tl = Map::new();
         match sk.parent(j) {
             None => {
                 let p0 = pos(0, j);
-                let keys: Vec<Value> = (0..anim.frames.len())
+                let values: Vec<Vec<f64>> = (0..n)
                     .map(|t| {
                         let p = pos(t, j);
+                        vec![p[0] - p0[0], p[1] - p0[1]]
+                    })
+                    .collect();
+                let keys: Vec<Value> = keys::reduce(&values, tol, None)
+                    .into_iter()
+                    .map(|t| {
                         json!({
                             "time": time(t),
-                            "x": round(p[0] - p0[0], 4),
-                            "y": round(p[1] - p0[1], 4),
+                            "x": round(values[t][0], 4),
+                            "y": round(values[t][1], 4),
                         })
                     })
                     .collect();
@@ -172,11 +209,16 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
                 // Cannot fail: this joint has a parent (this arm), so a bone ends at it.
                 let b = bone_of(j).expect("has a parent");
                 let r0 = local_deg(0, j);
-                let rotate: Vec<Value> = (0..anim.frames.len())
-                    .map(|t| json!({ "time": time(t), "value": round(local_deg(t, j) - r0, 5) }))
+                let rot: Vec<Vec<f64>> = (0..n).map(|t| vec![local_deg(t, j) - r0]).collect();
+                let rotate: Vec<Value> = keys::reduce(&rot, tol, Some(180.0))
+                    .into_iter()
+                    .map(|t| json!({ "time": time(t), "value": round(rot[t][0], 5) }))
                     .collect();
-                let scale: Vec<Value> = (0..anim.frames.len())
-                    .map(|t| json!({ "time": time(t), "x": round(scale(t, b), 6) }))
+                let sc: Vec<Vec<f64>> = (0..n).map(|t| vec![scale(t, b)]).collect();
+                let scale_tol = tol / series.length[0][b].max(1.0);
+                let scale: Vec<Value> = keys::reduce(&sc, scale_tol, None)
+                    .into_iter()
+                    .map(|t| json!({ "time": time(t), "x": round(sc[t][0], 6) }))
                     .collect();
                 tl.insert("rotate".into(), Value::Array(rotate));
                 tl.insert("scale".into(), Value::Array(scale));
@@ -241,7 +283,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
         }
     }
     let images = match mesh.image.rsplit_once('/') {
-        Some((dir, _)) => format!("{dir}/"),
+        Some((dir, _)) => format!("./{dir}/"),
         None => "./".into(),
     };
 
@@ -269,8 +311,8 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh) -> String {
     s
 }
 
-/// The Spine texture atlas (4.x text format) for `mesh`: one page, the character image itself
-/// (its path relative to the atlas), holding one region with the mesh's name.
+/// The Spine texture atlas (4.x text format) for `mesh`: one page, the character image (its path
+/// relative to the atlas, inside the export's folder), holding one region with the mesh's name.
 pub fn atlas(mesh: &SkinMesh) -> String {
     let (w, h) = (mesh.image_width, mesh.image_height);
     format!(
@@ -356,6 +398,29 @@ mod tests {
     }
 
     #[test]
+    fn bone_names_are_plain_unique_identifiers() {
+        let anim = Animation {
+            skeleton: Skeleton::new(
+                ["hip", "knee.L", "knee-L", "2nd", "root"]
+                    .map(String::from)
+                    .to_vec(),
+                vec![None, Some(0), Some(0), Some(0), None],
+            ),
+            frames: vec![0],
+            joints: vec![vec![[0.0; 2]; 5]],
+            fps: 30.0,
+            width: 10,
+            height: 10,
+        };
+        let n = bone_names(&anim);
+        assert_eq!(
+            n.of_joint,
+            vec!["hip", "knee_L", "knee_L_2", "_2nd", "root"]
+        );
+        assert_eq!(n.top.as_deref(), Some("root_2"));
+    }
+
+    #[test]
     fn keys_put_every_joint_where_the_pose_has_it() {
         // A stretching, turning chain on one root, and a second root.
         let sk = Skeleton::new(
@@ -401,13 +466,13 @@ mod tests {
             triangles: vec![],
             hull: 0,
         };
-        let doc: Value = serde_json::from_str(&to_spine(&anim, &mesh)).unwrap();
+        let doc: Value = serde_json::from_str(&to_spine(&anim, &mesh, Keys::EveryFrame)).unwrap();
         assert_eq!(doc["bones"][0]["name"], "root");
-        assert_eq!(doc["bones"][2]["name"], "hip->knee");
-        assert_eq!(
-            doc["animations"][ANIMATION]["bones"]["hip"]["translate"][2]["time"],
-            0.5
-        );
+        assert_eq!(doc["bones"][2]["name"], "knee");
+        // The clock starts at the first frame (frame 10), whatever its index.
+        let hip = &doc["animations"][ANIMATION]["bones"]["hip"]["translate"];
+        assert_eq!(hip[0]["time"], 0.0);
+        assert_eq!(hip[2]["time"], round(2.0 / 24.0, 6));
         for t in 0..anim.frames.len() {
             for (j, p) in spine_fk(&doc, &anim, t).iter().enumerate() {
                 let want = anim.joints[t][j];

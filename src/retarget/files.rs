@@ -45,6 +45,9 @@ pub struct RetargetManifest {
     /// Cartoon filter strength (0 = off) and σ (frames).
     pub cartoon_strength: f64,
     pub cartoon_sigma_frames: f64,
+    /// `--keep-size` (absent in manifests of earlier versions: false).
+    #[serde(default)]
+    pub keep_size: bool,
 }
 
 impl RetargetManifest {

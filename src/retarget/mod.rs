@@ -1,13 +1,22 @@
-//! Retargeting (METHOD.md §3, thesis eq. 4.7–4.8): the captured motion drives a target skeleton
-//! of the same topology.
+//! Retargeting (METHOD.md §3, thesis eq. 4.7–4.8): the captured motion drives a target skeleton,
+//! bone by bone: each target bone is driven by a source bone, a pair of source points (joints or
+//! midpoints of two; see [`mapping`]), whatever the two skeletons' shapes.
 //!
-//! For bone m at frame t with source length `l_mt` and angle `a_mt` (unwrapped):
+//! For target bone m at frame t with source length `l_mt` and angle `a_mt` (unwrapped) of its
+//! source bone:
 //! `Δl_mt = l_mt / l_m,t−1`, `Δa_mt = a_mt − a_m,t−1` (4.7), applied to the target's rest bone:
 //! `l'_mt = l'_m,t−1 · Δl_mt`, `a'_mt = a'_m,t−1 + Δa_mt` (4.8). The products and sums telescope,
-//! so they are computed as `l'_mt = l'_m0 · l_mt / l_m0` and `a'_mt = a'_m0 + (a_mt − a_m0)`:
-//! the same numbers without rounding piling up over a long clip. Each root follows its source
-//! root's displacement from the first frame, scaled by the ratio of skeleton sizes (sums of rest
-//! bone lengths); the other joints follow by forward kinematics.
+//! so they are computed as `a'_mt = a'_m0 + (a_mt − a_m0)` and `l'_mt = L'_m · l_mt / L_m`: the
+//! same increments without rounding piling up over a long clip. The lengths are anchored at the
+//! source bone's median length over the clip `L_m` (the target's rest length `L'_m` stands for
+//! it), not at its first frame's: on real footage the first frame can be an odd one (the dance
+//! clip's seed frame has the subject close to the camera, and a knee and an ankle 4 px apart),
+//! and a first-frame anchor would carry that oddity through the whole clip. The ratio
+//! `l_mt / L_m` is kept within [`MIN_LENGTH_RATIO`]..[`MAX_LENGTH_RATIO`]. A target bone with no
+//! source bone keeps its rest length and its rest angle relative to its parent bone. Each root
+//! follows its source point's displacement from the first frame, scaled by the ratio of sizes
+//! (sums over the driven bones: target rest lengths against source median lengths); the other
+//! joints follow by forward kinematics.
 //!
 //! Before that, optionally, the source joints are smoothed ([`Smooth`]) and each bone's length
 //! and angle signals go through the cartoon filter ([`Cartoon`], METHOD.md §5).
@@ -15,13 +24,23 @@
 
 pub mod files;
 pub mod filter;
+pub mod mapping;
 
 use crate::character::Scale;
 use crate::error::{Error, Result};
 use crate::geom::Point;
 use crate::run::TrackRow;
 use crate::skeleton::Skeleton;
+use mapping::Mapping;
 use std::path::Path;
+
+/// Bounds of a driven bone's length relative to its rest length (its source bone's length over
+/// the source's median length): beyond them the source bone is a mislabelled or lost joint
+/// rather than a pose (on the dance clip a forearm labelled at 3 times its length, a head
+/// squashed to a fifth), and the target would show a needle or a disc.
+pub const MIN_LENGTH_RATIO: f64 = 1.0 / 3.0;
+/// See [`MIN_LENGTH_RATIO`].
+pub const MAX_LENGTH_RATIO: f64 = 1.5;
 
 /// A position in f64 px (image space, see [`crate::geom`]).
 pub type P64 = [f64; 2];
@@ -94,6 +113,10 @@ impl std::str::FromStr for Smooth {
 pub struct RetargetOptions {
     pub smooth: Option<Smooth>,
     pub cartoon: Option<Cartoon>,
+    /// Keep the character's size when the whole source grows or shrinks (the subject walking
+    /// towards or away from the camera): each frame's driven length ratios are divided by
+    /// their median over the bones, so only the bones' lengths relative to each other follow.
+    pub keep_size: bool,
 }
 
 /// Where the target's rest skeleton goes in the output frame: `out = image · scale + offset`.
@@ -138,25 +161,72 @@ pub fn skeleton_size(skeleton: &Skeleton, joints: &[P64]) -> f64 {
         .sum()
 }
 
+/// `[target bone]`: the median over the frames of `joints` of the length (px) of the bone's
+/// source bone; `None` for a bone nothing drives or whose length is not followed
+/// ([`Mapping::keep_length`]).
+pub fn reference_lengths(joints: &[Vec<P64>], mapping: &Mapping) -> Vec<Option<f64>> {
+    mapping
+        .bone
+        .iter()
+        .zip(&mapping.keep_length)
+        .map(|(m, &keep)| {
+            m.as_ref().filter(|_| !keep).map(|(a, b)| {
+                let l: Vec<f64> = joints.iter().map(|f| dist(a.at(f), b.at(f))).collect();
+                median(&l)
+            })
+        })
+        .collect()
+}
+
+/// The median of `v` (the mean of the two middle values for an even count; 0 when empty).
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => s[n / 2],
+        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+    }
+}
+
+/// Sums over the driven bones of the target's lengths in `target_joints` and of their source
+/// bones' `reference` lengths ([`reference_lengths`]), px: the sizes [`place`] and [`retarget`]
+/// compare.
+pub fn driven_sizes(
+    target: &Skeleton,
+    target_joints: &[P64],
+    reference: &[Option<f64>],
+) -> (f64, f64) {
+    target
+        .bones()
+        .iter()
+        .zip(reference)
+        .filter_map(|(&(p, c), r)| r.map(|r| (p, c, r)))
+        .fold((0.0, 0.0), |(t, s), (p, c, r)| {
+            (t + dist(target_joints[p], target_joints[c]), s + r)
+        })
+}
+
 /// Places the target's rest skeleton (`rest`, image px) in the output frame next to the source's
-/// first frame (`source_rest`, px): scaled by `scale` ([`Scale::Fit`]: to the source skeleton's
-/// size), its first root at the x of its source joint, and its lowest joint at the height of the
-/// source's lowest joint, so both stand on the same floor.
+/// first frame (`source_rest`, px): scaled by `scale` ([`Scale::Fit`]: so that its driven bones
+/// are, in sum, as long as their source bones' `reference` lengths), its first root at the x of
+/// the source point it follows, and its lowest joint at the height of the source's lowest joint,
+/// so both stand on the same floor.
 pub fn place(
     target: &Skeleton,
     rest: &[Point],
     scale: Scale,
-    source: &Skeleton,
+    mapping: &Mapping,
     source_rest: &[P64],
-    to_source: &[usize],
+    reference: &[Option<f64>],
 ) -> Placement {
     let rest64: Vec<P64> = rest.iter().map(|p| [p.x as f64, p.y as f64]).collect();
     let k = match scale {
         Scale::Factor(f) => f as f64,
         Scale::Fit => {
-            let t = skeleton_size(target, &rest64);
-            if t > 1e-9 {
-                skeleton_size(source, source_rest) / t
+            let (t, s) = driven_sizes(target, &rest64, reference);
+            if t > 1e-9 && s > 1e-9 {
+                s / t
             } else {
                 1.0
             }
@@ -164,7 +234,10 @@ pub fn place(
     };
     let root = target.topo_order().first().copied().unwrap_or(0);
     let lowest = |ps: &mut dyn Iterator<Item = f64>| ps.fold(f64::NEG_INFINITY, f64::max);
-    let ox = source_rest[to_source[root]][0] - k * rest64[root][0];
+    let follows = mapping.root[root]
+        .as_ref()
+        .map_or(source_rest[0], |s| s.at(source_rest));
+    let ox = follows[0] - k * rest64[root][0];
     let oy = lowest(&mut source_rest.iter().map(|p| p[1]))
         - k * lowest(&mut rest64.iter().map(|p| p[1]));
     Placement {
@@ -234,14 +307,13 @@ pub fn motion_from_tracks(rows: &[TrackRow], skeleton: &Skeleton, path: &Path) -
     Ok(Motion { frames, joints })
 }
 
-/// Retargets `motion` (source joints, in `source` order) onto the target skeleton whose rest pose
-/// in output px is `rest_out`; `to_source[j]` is target joint j's source joint (see
-/// [`crate::character::Character::match_source`]). Implements eq. 4.7–4.8 (see the module docs).
+/// Retargets `motion` (source joints) onto the target skeleton whose rest pose in output px is
+/// `rest_out`, each bone driven as `mapping` says ([`mapping::build`]). Implements eq. 4.7–4.8
+/// (see the module docs).
 pub fn retarget(
     motion: &Motion,
-    source: &Skeleton,
     target: &Skeleton,
-    to_source: &[usize],
+    mapping: &Mapping,
     rest_out: &[P64],
     opts: &RetargetOptions,
 ) -> Retargeted {
@@ -250,31 +322,78 @@ pub fn retarget(
     let bones = target.bones();
     let mut length = vec![vec![0.0; bones.len()]; frames];
     let mut angle = vec![vec![0.0; bones.len()]; frames];
-    for (b, &(p, c)) in bones.iter().enumerate() {
-        let (sp, sc) = (to_source[p], to_source[c]);
-        let (mut l, mut a) = bone_signals(&src, sp, sc);
-        if let Some(f) = opts.cartoon {
-            l = filter::cartoon(&l, f.strength, f.sigma_frames);
-            a = filter::cartoon(&a, f.strength, f.sigma_frames);
-        }
-        let l0 = l[0].max(1e-9);
+    let bone_of: Vec<Option<usize>> = (0..target.len())
+        .map(|j| bones.iter().position(|&(_, c)| c == j))
+        .collect();
+    // Each frame's size relative to the median sizes (1 unless `keep_size`): the median over
+    // the driven bones of their length ratios.
+    let reference = reference_lengths(&src, mapping);
+    let size: Vec<f64> = (0..frames)
+        .map(|t| {
+            if !opts.keep_size {
+                return 1.0;
+            }
+            let ratios: Vec<f64> = mapping
+                .bone
+                .iter()
+                .zip(&reference)
+                .filter_map(|(m, r)| {
+                    let ((a, b), r) = (m.as_ref()?, (*r)?);
+                    (r > 1e-9).then(|| dist(a.at(&src[t]), b.at(&src[t])) / r)
+                })
+                .collect();
+            let g = median(&ratios);
+            if g > 1e-9 {
+                g
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    // Parents first, so that an undriven bone can follow its parent bone's angle.
+    for c in target.topo_order() {
+        let Some(b) = bone_of[c] else { continue };
+        let p = bones[b].0;
         let rest_len = dist(rest_out[p], rest_out[c]);
         let rest_angle = angle_of(rest_out[p], rest_out[c]);
-        for t in 0..frames {
-            length[t][b] = (rest_len * l[t] / l0).max(0.0);
-            angle[t][b] = rest_angle + (a[t] - a[0]);
+        match &mapping.bone[b] {
+            Some((from, to)) => {
+                let (mut l, mut a) = bone_signals(&src, from, to);
+                if let Some(f) = opts.cartoon {
+                    l = filter::cartoon(&l, f.strength, f.sigma_frames);
+                    a = filter::cartoon(&a, f.strength, f.sigma_frames);
+                }
+                let l_ref = median(&l).max(1e-9);
+                for t in 0..frames {
+                    let ratio = if mapping.keep_length[b] {
+                        1.0
+                    } else {
+                        (l[t] / l_ref / size[t]).clamp(MIN_LENGTH_RATIO, MAX_LENGTH_RATIO)
+                    };
+                    length[t][b] = rest_len * ratio;
+                    angle[t][b] = rest_angle + (a[t] - a[0]);
+                }
+            }
+            None => {
+                let parent = bone_of[p];
+                let offset = parent.map_or(rest_angle, |f| {
+                    rest_angle - angle_of(rest_out[bones[f].0], rest_out[p])
+                });
+                for t in 0..frames {
+                    length[t][b] = rest_len;
+                    angle[t][b] = parent.map_or(0.0, |f| angle[t][f]) + offset;
+                }
+            }
         }
     }
-    let src_size = skeleton_size(source, &src[0]);
+    let (target_size, src_size) = driven_sizes(target, rest_out, &reference);
     let ratio = if src_size > 1e-9 {
-        skeleton_size(target, rest_out) / src_size
+        target_size / src_size
     } else {
         1.0
     };
     let order = target.topo_order();
-    let bone_of: Vec<Option<usize>> = (0..target.len())
-        .map(|j| bones.iter().position(|&(_, c)| c == j))
-        .collect();
+    let all = mapping::SourcePoint((0..src.first().map_or(0, Vec::len)).collect());
     let joints = (0..frames)
         .map(|t| {
             let mut pos = vec![[0.0; 2]; target.len()];
@@ -285,10 +404,11 @@ pub fn retarget(
                         [pos[p][0] + l * a.cos(), pos[p][1] + l * a.sin()]
                     }
                     _ => {
-                        let s = to_source[j];
+                        let s = mapping.root[j].as_ref().unwrap_or(&all);
+                        let (now, first) = (s.at(&src[t]), s.at(&src[0]));
                         [
-                            rest_out[j][0] + ratio * (src[t][s][0] - src[0][s][0]),
-                            rest_out[j][1] + ratio * (src[t][s][1] - src[0][s][1]),
+                            rest_out[j][0] + ratio * (now[0] - first[0]),
+                            rest_out[j][1] + ratio * (now[1] - first[1]),
                         ]
                     }
                 };
@@ -305,14 +425,19 @@ pub fn retarget(
     }
 }
 
-/// Length (px) and unwrapped angle (radians) of the source bone `p → c` over the frames. A bone
-/// of (near) zero length keeps its previous angle.
-fn bone_signals(src: &[Vec<P64>], p: usize, c: usize) -> (Vec<f64>, Vec<f64>) {
+/// Length (px) and unwrapped angle (radians) of the source bone `from → to` over the frames. A
+/// bone of (near) zero length keeps its previous angle.
+fn bone_signals(
+    src: &[Vec<P64>],
+    from: &mapping::SourcePoint,
+    to: &mapping::SourcePoint,
+) -> (Vec<f64>, Vec<f64>) {
     let mut l = Vec::with_capacity(src.len());
     let mut a: Vec<f64> = Vec::with_capacity(src.len());
     for f in src {
-        let len = dist(f[p], f[c]);
-        let raw = angle_of(f[p], f[c]);
+        let (p, c) = (from.at(f), to.at(f));
+        let len = dist(p, c);
+        let raw = angle_of(p, c);
         let ang = match a.last() {
             None => raw,
             Some(&prev) if len < 1e-9 => prev,

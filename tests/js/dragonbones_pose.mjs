@@ -2,12 +2,15 @@
 // ObjectDataParser, BaseFactory, Armature and its animation, with no renderer: the factory below
 // builds armatures and slots that display nothing), plays the first animation to each given time
 // and prints, as JSON on the last line of stdout (the runtime prints a banner first), every bone's world position (origin and tip = its local
-// (length, 0)) at each time.
-// Usage: node dragonbones_pose.mjs SKE.json T1,T2,...
-import { readFileSync } from "node:fs";
+// (length, 0)) at each time. With TEX.json, the texture atlas is parsed too (its image must be a
+// PNG beside it), every mesh display must find its texture in it, and each mesh's world vertices
+// at each time are printed (weighted meshes deformed as the runtime's renderers do it).
+// Usage: node dragonbones_pose.mjs SKE.json T1,T2,... [TEX.json]
+import { existsSync, readFileSync } from "node:fs";
+import { dirname, isAbsolute, join } from "node:path";
 import * as db from "@cocos/dragonbones-js";
 
-const [path, timesArg] = process.argv.slice(2);
+const [path, timesArg, texPath] = process.argv.slice(2);
 
 // An event dispatcher that dispatches nothing.
 class Events {
@@ -44,10 +47,14 @@ class NullSlot extends db.Slot {
   _updateTransform() {}
   _identityTransform() {}
 }
-// A texture atlas without textures.
+// Texture data without an image loaded.
+class NullTexture extends db.TextureData {
+  static toString() { return "[class NullTexture]"; }
+}
+// A texture atlas without images.
 class NullAtlas extends db.TextureAtlasData {
   static toString() { return "[class NullAtlas]"; }
-  createTexture() { throw new Error("no texture expected"); }
+  createTexture() { return db.BaseObject.borrowObject(NullTexture); }
 }
 class NullFactory extends db.BaseFactory {
   constructor() {
@@ -71,6 +78,18 @@ class NullFactory extends db.BaseFactory {
 
 const raw = JSON.parse(readFileSync(path, "utf8"));
 const factory = new NullFactory();
+let texture = null;
+if (texPath) {
+  const rawTex = JSON.parse(readFileSync(texPath, "utf8"));
+  const image = rawTex.imagePath;
+  if (isAbsolute(image) || image.includes("..")) throw new Error(`imagePath ${image} is not inside the atlas's folder`);
+  const file = join(dirname(texPath), image);
+  if (!existsSync(file)) throw new Error(`imagePath ${image} not found beside ${texPath}`);
+  if (readFileSync(file).subarray(0, 8).toString("latin1") !== "\x89PNG\r\n\x1a\n") throw new Error(`${file} is not a PNG`);
+  // Under the name the skeleton data is parsed with below, as an engine loads a pair.
+  const atlas = factory.parseTextureAtlasData(rawTex, null, "export");
+  texture = { name: atlas.name, imagePath: atlas.imagePath, regions: Object.keys(atlas.textures) };
+}
 const data = factory.parseDragonBonesData(raw, "export");
 if (data === null) throw new Error("the DragonBones parser rejected the file");
 const armatureName = data.armatureNames[0];
@@ -81,11 +100,50 @@ if (animationNames.length !== 1) throw new Error(`expected one animation, found 
 const name = animationNames[0];
 const times = timesArg.split(",").map(Number);
 const bones = armature.getBones();
+// Mesh displays: each must have found its texture (when an atlas was given).
+const meshes = [];
+for (const slot of armature.getSlots()) {
+  const displays = armature.armatureData.defaultSkin.getDisplays(slot.name) || [];
+  for (const d of displays) {
+    if (d.type !== 2 /* Mesh */) continue;
+    if (texPath && d.texture === null) throw new Error(`mesh ${d.name} of slot ${slot.name}: texture ${d.path} not found in the atlas`);
+    meshes.push({ slot: slot.name, name: d.name, texture: d.texture ? d.texture.name : null, data: d });
+  }
+}
+// World vertices of a weighted mesh, as the renderers' Slot._updateMesh computes them.
+function meshVertices(d) {
+  const v = d.vertices;
+  const data = v.data;
+  const ints = data.intArray;
+  const floats = data.floatArray;
+  const count = ints[v.offset + 0];
+  const weight = v.weight;
+  if (weight === null) throw new Error(`mesh ${d.name} is not weighted`);
+  const meshBones = weight.bones.map((b) => armature.getBone(b.name));
+  const out = [];
+  let iB = weight.offset + 2 + weight.bones.length;
+  let iV = ints[weight.offset + 1];
+  for (let i = 0; i < count; ++i) {
+    const n = ints[iB++];
+    let x = 0, y = 0;
+    for (let j = 0; j < n; ++j) {
+      const m = meshBones[ints[iB++]].globalTransformMatrix;
+      const w = floats[iV++];
+      const xL = floats[iV++];
+      const yL = floats[iV++];
+      x += (m.a * xL + m.c * yL + m.tx) * w;
+      y += (m.b * xL + m.d * yL + m.ty) * w;
+    }
+    out.push(x, y);
+  }
+  return out;
+}
 // Poses every bone at each time, with the runtime's y axis down (DragonBones' own data axes, as
 // upstream DragonBonesJS, Egret and Pixi run) or up (this Cocos fork's default, which flips y).
 function pose(yDown) {
   db.DragonBones.yDown = yDown;
   const result = bones.map((b) => ({ name: b.name, parent: b.parent ? b.parent.name : null, x: [], y: [], tipX: [], tipY: [] }));
+  const vertices = meshes.map(() => []);
   for (const t of times) {
     armature.animation.gotoAndStopByTime(name, t);
     armature.advanceTime(0);
@@ -101,8 +159,9 @@ function pose(yDown) {
       result[i].tipX.push(m.a * len + m.tx);
       result[i].tipY.push(m.b * len + m.ty);
     });
+    meshes.forEach((mesh, k) => vertices[k].push(meshVertices(mesh.data)));
   }
-  return result;
+  return { bones: result, vertices };
 }
 const out = {
   version: data.version,
@@ -111,8 +170,14 @@ const out = {
   animation: name,
   duration: armature.animation.animations[name].duration,
   slots: armature.getSlots().map((s) => s.name),
+  texture,
+  meshes: meshes.map((m) => ({ slot: m.slot, name: m.name, texture: m.texture })),
   yDownDefault: db.DragonBones.yDown,
-  bonesYDown: pose(true),
-  bonesYUp: pose(false),
 };
+const down = pose(true);
+const up = pose(false);
+out.bonesYDown = down.bones;
+out.bonesYUp = up.bones;
+out.verticesYDown = down.vertices;
+out.verticesYUp = up.vertices;
 process.stdout.write("\n" + JSON.stringify(out) + "\n");

@@ -1,23 +1,43 @@
 // Loads a Spine skeleton JSON (+ its .atlas) with the official runtime (spine-core's
-// SkeletonJson and AtlasAttachmentLoader; no textures are needed to pose a skeleton), applies the
-// first animation at each given time and prints, as JSON on stdout, every bone's world position
-// (origin and tip = its local (length, 0)) and the skin's world vertices at each time.
-// Usage: node spine_pose.mjs SKELETON.json SKELETON.atlas T1,T2,...
-import { readFileSync } from "node:fs";
+// SkeletonJson and AtlasAttachmentLoader; no textures are needed to pose a skeleton, but every
+// atlas page must be an image file found beside the atlas), applies the animation ANIMATION (by
+// default the only one) at each given time and prints, as JSON on stdout, every bone's world
+// position (origin and tip = its local (length, 0)) and the skin's world vertices at each time.
+// Usage: node spine_pose.mjs SKELETON.json SKELETON.atlas T1,T2,... [ANIMATION]
+import { existsSync, readFileSync, statSync } from "node:fs";
+import { dirname, isAbsolute, join } from "node:path";
 import * as spine from "@esotericsoftware/spine-core";
 
-const [skeletonPath, atlasPath, timesArg] = process.argv.slice(2);
+const [skeletonPath, atlasPath, timesArg, animationName] = process.argv.slice(2);
 const atlas = new spine.TextureAtlas(readFileSync(atlasPath, "utf8"));
+// The pages a renderer would load: relative to the atlas, present, PNG files.
+const pages = atlas.pages.map((p) => {
+  if (isAbsolute(p.name) || p.name.includes("..")) throw new Error(`atlas page ${p.name} is not inside the atlas's folder`);
+  const file = join(dirname(atlasPath), p.name);
+  if (!existsSync(file)) throw new Error(`atlas page ${p.name} not found beside ${atlasPath}`);
+  const head = readFileSync(file).subarray(0, 8).toString("latin1");
+  if (head !== "\x89PNG\r\n\x1a\n") throw new Error(`atlas page ${file} is not a PNG`);
+  return { name: p.name, bytes: statSync(file).size };
+});
 const json = new spine.SkeletonJson(new spine.AtlasAttachmentLoader(atlas));
 const data = json.readSkeletonData(readFileSync(skeletonPath, "utf8"));
 const skeleton = new spine.Skeleton(data);
-if (data.animations.length !== 1) throw new Error(`expected one animation, found ${data.animations.length}`);
-const animation = data.animations[0];
+let animation;
+if (animationName) {
+  animation = data.findAnimation(animationName);
+  if (animation === null) throw new Error(`no animation ${animationName}`);
+} else {
+  if (data.animations.length !== 1) throw new Error(`expected one animation, found ${data.animations.length}`);
+  animation = data.animations[0];
+}
 const times = timesArg.split(",").map(Number);
 
 const out = {
   version: data.version,
   fps: data.fps,
+  images: data.imagesPath,
+  pages,
+  animations: data.animations.map((a) => a.name),
   animation: animation.name,
   duration: animation.duration,
   bones: data.bones.map((b) => ({ name: b.name, parent: b.parent ? b.parent.name : null, x: [], y: [], tipX: [], tipY: [] })),
