@@ -263,10 +263,14 @@ fn corrections_of_flagged_segments_lift_accuracy() {
         let (before, after) = correct_flagged(&s, 40);
         println!("seed {seed}: PCK@5 {before} -> {after}");
         assert!(after > before, "seed {seed}: PCK@5 {before} -> {after}");
-        assert!(after >= 0.975, "seed {seed}: PCK@5 {before} -> {after}");
+        assert!(after >= 0.955, "seed {seed}: PCK@5 {before} -> {after}");
         sum += after;
     }
-    // Measured (all six segments flagged, their seven files corrected): 95.0 -> 97.7, 96.3 ->
+    // Measured with Lucas–Kanade between the keys where it lands decisively nearer them than
+    // the tracker's passes (run::keyed): 95.0 -> 95.9, 96.3 -> 98.4, 94.7 -> 98.5, 97.1 ->
+    // 98.0, 97.5 -> 97.7 %, mean 97.7 %: seed 1 loses 1.8 points to it, which on the real dance
+    // lifts keys every 50 frames from 54.6 to 67 % PCK@20. With the tracker's blend alone:
+    // (all six segments flagged, their seven files corrected): 95.0 -> 97.7, 96.3 ->
     // 98.9, 94.7 -> 98.5, 97.1 -> 99.6, 97.5 -> 99.8 %, mean 98.9 %. Until the tenth session
     // `long` also crouched through the first turn (its first crouch's window was open at the
     // start); on that clip: 91.7 -> 95.7, 94.7 ->
@@ -280,7 +284,7 @@ fn corrections_of_flagged_segments_lift_accuracy() {
     // 96.5 %; without the seed appearance for bones hidden on a keyframe: 96.0 %; without filling
     // joints hidden in every blended pass between the keyframes as well: 95.4 % (both with the
     // earlier defaults).
-    assert!(sum / 5.0 >= 0.985, "mean PCK@5 {}", sum / 5.0);
+    assert!(sum / 5.0 >= 0.975, "mean PCK@5 {}", sum / 5.0);
 }
 
 /// What a user does first: correct only the worst flagged segment (its file and the next one,
@@ -755,4 +759,68 @@ fn a_missing_or_changed_state_file_is_named_and_rebuilt_from_an_earlier_segment(
         .filter(|(n, _)| n != "run.toml")
         .collect();
     assert!(after == before, "resume rebuilt what track wrote");
+}
+
+/// A key on any frame (`keys.toml`), for some joints only: after `resume`, those joints sit on
+/// the key on its frame (status `seed`), the frames before it in its segment are pulled toward
+/// it (they end nearer the truth when the key is the truth), the frames before its segment
+/// stay byte for byte, a resume repeats the same bytes, and a key naming no joint of the run
+/// is refused with exit 2 naming the file, line and joint.
+#[test]
+fn a_key_on_any_frame_pulls_the_frames_around_it() {
+    let s = Synth::new(Scenario::Fast, 320, 180, Some(90));
+    let run = s.path("run");
+    s.track("run", 30);
+    let before = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
+    let names: Vec<String> = read_seeds(&s.path("joints.toml"))
+        .unwrap()
+        .0
+        .joints
+        .iter()
+        .map(|j| j.name.clone())
+        .collect();
+    // Keys on frames 44 and 52 (inside segment 1) for the joints worst tracked there: the
+    // ground truth, as a user clicking the right place would give.
+    let err_at = |f: u64| -> Vec<f32> {
+        let rows = read_tracks(&run.join("tracks.csv")).unwrap();
+        rows.iter()
+            .filter(|r| r.frame == f)
+            .enumerate()
+            .map(|(j, r)| (r.x - s.gt[f as usize][j].0).hypot(r.y - s.gt[f as usize][j].1))
+            .collect()
+    };
+    let e52 = err_at(52);
+    let mut worst: Vec<usize> = (0..names.len()).collect();
+    worst.sort_by(|a, b| e52[*b].total_cmp(&e52[*a]));
+    let keyed = &worst[..3];
+    let mut text = String::new();
+    for f in [44u64, 52] {
+        text.push_str(&format!("[[key]]\nframe = {f}\n"));
+        for &j in keyed {
+            let (x, y) = s.gt[f as usize][j];
+            text.push_str(&format!("{} = [{x}, {y}]\n", names[j]));
+        }
+    }
+    std::fs::write(run.join("keys.toml"), &text).unwrap();
+    let far_before: f32 = (45..52).map(|f| keyed.iter().map(|&j| err_at(f)[j]).sum::<f32>()).sum();
+    resume_run(&run, Some(1)).unwrap();
+    let rows = read_tracks(&run.join("tracks.csv")).unwrap();
+    for &j in keyed {
+        let r = rows.iter().find(|r| r.frame == 52 && r.joint == names[j]).unwrap();
+        assert_eq!((r.x, r.y), s.gt[52][j], "{}", names[j]);
+        assert_eq!(r.status, "seed");
+    }
+    let far_after: f32 = (45..52).map(|f| keyed.iter().map(|&j| err_at(f)[j]).sum::<f32>()).sum();
+    println!("keyed joints' error summed over frames 45-51: {far_before:.1} -> {far_after:.1} px");
+    assert!(far_after < far_before, "{far_before} -> {far_after}");
+    assert!(far_after <= 0.5 * far_before + 5.0, "{far_before} -> {far_after}");
+    let keep = |t: &str| -> Vec<String> { t.lines().take(1 + 30 * names.len()).map(str::to_owned).collect() };
+    let after = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
+    assert_eq!(keep(&before), keep(&after), "frames before segment 1 changed");
+    resume_run(&run, Some(1)).unwrap();
+    assert_eq!(after, std::fs::read_to_string(run.join("tracks.csv")).unwrap());
+
+    std::fs::write(run.join("keys.toml"), "[[key]]\nframe = 40\nelbow_x = [10, 10]\n").unwrap();
+    let o = run_bin(&["resume", s(&run), "--segment", "1", "-q"]);
+    assert_exit(&o, 2, &["keys.toml", "line 3", "elbow_x", "no such joint"]);
 }

@@ -41,7 +41,7 @@ impl Default for KeyedParams {
             flow: FlowParams::default(),
             max_fb_px: 3.0,
             floor_px: 0.5,
-            guide_sigma_px: 0.15,
+            guide_sigma_px: 4.0,
         }
     }
 }
@@ -54,12 +54,23 @@ pub struct Solved {
     pub sigma_px: f32,
 }
 
+/// What [`solve`] finds between two keys.
+#[derive(Debug, Clone)]
+pub struct Between {
+    /// `[t][j]`: every joint on every frame, the keys' frames included.
+    pub rows: Vec<Vec<Solved>>,
+    /// Per joint, how far Lucas–Kanade's two ways land from the keys they run toward (px,
+    /// forward's miss plus backward's; infinite without a key at both ends).
+    pub lk_miss: Vec<f32>,
+}
+
+/// Where the appearance tracker also ran both ways between two keys, its blend is kept for a
+/// joint unless Lucas–Kanade's ways land nearer the keys than this share of the tracker's
+/// ways' miss (see docs/method.md, "Motion between keys").
+pub const LK_MARGIN: f32 = 0.5;
+
 /// Variance (px²) given to a step no Lucas–Kanade pass could follow.
 const FAILED_STEP_VAR: f64 = 100.0;
-
-/// The tracker's ways are taken over Lucas–Kanade's between two keys only where they land
-/// this much nearer the keys (see [`solve`]).
-const TRACKER_MARGIN: f32 = 0.5;
 
 /// Variance (px²) of a step of the appearance tracker where it did not call the joint `ok`.
 const GUESSED_STEP_VAR: f64 = 64.0;
@@ -97,15 +108,14 @@ pub fn solve(
     end: Option<&[Option<Point>]>,
     guide: &[Vec<Point>],
     guide_ok: &[Vec<bool>],
-    back_guide: Option<(&[Vec<Point>], &[Vec<bool>])>,
     boxes: &[u32],
     prm: &KeyedParams,
-) -> Vec<Vec<Solved>> {
+) -> Between {
     let n = frames.len();
     let fwd: Vec<&GreyPyramid> = frames.iter().collect();
     let bwd: Vec<&GreyPyramid> = frames.iter().rev().collect();
     let gvar = (prm.guide_sigma_px as f64).powi(2);
-    let per_joint: Vec<Vec<Solved>> = (0..start.len())
+    let per_joint: Vec<(Vec<Solved>, f32)> = (0..start.len())
         .into_par_iter()
         .map(|j| {
             let flow = FlowParams {
@@ -128,7 +138,6 @@ pub fn solve(
                 vg[t] = vg[t - 1] + if sure { gvar } else { GUESSED_STEP_VAR };
             }
             let pg: Vec<Point> = guide.iter().map(|g| g[j]).collect();
-            let guide_raw = pg.clone();
             // Between two keys the guide is bent onto the far one (its miss shared out as its
             // doubt grew) and counts from both ends: its doubt on a frame is what its steps
             // gathered since the nearer key.
@@ -142,61 +151,34 @@ pub fn solve(
                     vg[t] = vg[t].min(total - vg[t]);
                 }
             }
-            // The tracker run backward from the far key, weighed the same way from there.
-            let back_g = back_guide.filter(|_| key_b.is_some()).map(|(g, ok)| {
-                let mut v = vec![0.0f64; n];
-                for t in (0..n - 1).rev() {
-                    let sure = ok[t][j] && ok[t + 1][j];
-                    v[t] = v[t + 1] + if sure { gvar } else { GUESSED_STEP_VAR };
-                }
-                (g.iter().map(|r| r[j]).collect::<Vec<Point>>(), v)
-            });
-            // Which family of ways to trust between these keys: the tracker's (forward and
-            // backward) or Lucas–Kanade's, by how far each lands from the key it runs toward.
-            // Flat colours and hidden limbs suit the tracker; texture and a lost tracker, LK.
-            let tracker_wins = match (&back_g, &back, key_b, guide_raw.is_empty()) {
-                (Some((bg, _)), Some((pb, _)), Some(kb), false) => {
-                    let tracker = (guide_raw[n - 1] - kb).norm() + (bg[0] - start[j]).norm();
-                    let lk = (pf[n - 1] - kb).norm() + (pb[0] - start[j]).norm();
-                    tracker < TRACKER_MARGIN * lk
-                }
-                _ => false,
+            let miss = match (key_b, &back) {
+                (Some(kb), Some((pb, _))) => (pf[n - 1] - kb).norm() + (pb[0] - start[j]).norm(),
+                _ => f32::INFINITY,
             };
-            (0..n)
+            let rows: Vec<Solved> = (0..n)
                 .map(|t| {
                     // Time weights: each side counts for less the further from its key.
                     let lam = if n > 1 { t as f64 / (n - 1) as f64 } else { 0.0 };
                     let mut sides: Vec<(Point, f64, f64)> = Vec::with_capacity(3);
-                    if tracker_wins {
-                        let (bg, _) = back_g.as_ref().expect("checked");
-                        let wf = (1.0 - lam) as f32;
-                        let miss_f = key_b.expect("checked") - guide_raw[n - 1];
-                        let miss_b = start[j] - bg[0];
-                        let f = guide_raw[t] + miss_f * lam as f32;
-                        let b = bg[t] + miss_b * wf;
-                        return Solved {
-                            pos: f + (b - f) * lam as f32,
-                            sigma_px: (f - b).norm() * 2.0 * (lam.min(1.0 - lam)) as f32,
-                        };
-                    }
                     sides.push((pf[t], vf[t], 1.0 - lam));
                     if !guide.is_empty() {
                         sides.push((pg[t], vg[t], 1.0));
-                    }
-                    if let Some((pg, vg)) = &back_g {
-                        sides.push((pg[t], vg[t], lam));
                     }
                     if let Some((pb, vb)) = &back {
                         sides.push((pb[t], vb[t], lam));
                     }
                     fuse(&sides, back.is_some(), lam)
                 })
-                .collect()
+                .collect();
+            (rows, miss)
         })
         .collect();
-    (0..n)
-        .map(|t| per_joint.iter().map(|p| p[t]).collect())
-        .collect()
+    Between {
+        rows: (0..n)
+            .map(|t| per_joint.iter().map(|p| p.0[t]).collect())
+            .collect(),
+        lk_miss: per_joint.iter().map(|p| p.1).collect(),
+    }
 }
 
 /// Fuses the sides' positions `(position, accumulated variance, time weight)`: weights are the
@@ -274,7 +256,7 @@ mod tests {
         // The end key 1 px off the true motion: the path must still end on it, and lean
         // toward it the nearer it is.
         let end = [Some(Point::new(71.0, 60.0))];
-        let out = solve(&frames, &start, Some(&end), &[], &[], None, &[25], &KeyedParams::default());
+        let out = solve(&frames, &start, Some(&end), &[], &[], &[25], &KeyedParams::default()).rows;
         assert_eq!(out[5][0].pos, Point::new(71.0, 60.0));
         for (t, row) in out.iter().enumerate() {
             let want = 60.0 + 2.0 * t as f32 + 0.2 * t as f32;
