@@ -290,16 +290,31 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
             run_dir.display()
         )));
     }
-    folder::check_no_corrections(&run_dir)?;
+    // One writer at a time: the folder is made (if new) to hold the lock, and every check of
+    // what it holds is made under the lock.
+    // The outermost folder this run makes (the run folder, or a missing parent of it).
+    let created = run_dir
+        .ancestors()
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .last()
+        .map(Path::to_path_buf);
+    let created_dir = created.is_some();
+    std::fs::create_dir_all(&run_dir).map_err(|e| Error::io(&run_dir, e))?;
+    let _lock = crate::run::lock::RunLock::acquire(&run_dir, "track")?;
+    // Until the run starts, a failure (or Ctrl-C) leaves nothing behind in folders it made.
+    let unmake = |e: Error| -> Error {
+        if let Some(c) = &created {
+            let _ = std::fs::remove_dir_all(c);
+        }
+        e
+    };
+    folder::check_no_corrections(&run_dir).map_err(unmake)?;
     progress.start("background", None);
-    let (background, bg_desc) = background_for(opts, info.width, info.height, Some(&seeds))?;
+    let (background, bg_desc) =
+        background_for(opts, info.width, info.height, Some(&seeds)).map_err(unmake)?;
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
-    let (bytes, blake3) = hash_clip(&opts.clip)?;
-
-    let created_dir = !run_dir.exists();
-    std::fs::create_dir_all(run_dir.join(segments::SEGMENTS_DIR))
-        .map_err(|e| Error::io(&run_dir, e))?;
+    let (bytes, blake3) = hash_clip(&opts.clip).map_err(unmake)?;
     // On failure leave nothing behind in a folder this run made; an interrupted run keeps its
     // checkpoint for `resume`.
     let abandon = |e: Error| -> Error {
@@ -308,6 +323,9 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         }
         e
     };
+
+    std::fs::create_dir_all(run_dir.join(segments::SEGMENTS_DIR))
+        .map_err(|e| unmake(Error::io(&run_dir, e)))?;
     let start = prepare_new_run(
         &run_dir, &seeds, &seed_text, opts, &info, bg_desc, threshold, bytes, blake3,
     )

@@ -39,6 +39,8 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
             msg: "not a folder; give a run folder written by `mocap2d track`".into(),
         });
     }
+    // One writer at a time; everything below reads the folder under the lock.
+    let _lock = crate::run::lock::RunLock::acquire(run_dir, "resume")?;
     let manifest_path = run_dir.join(RUN_TOML);
     let manifest = Manifest::read(&manifest_path)?;
     let clip = check_inputs(opts, &manifest, &manifest_path)?;

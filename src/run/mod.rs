@@ -11,11 +11,13 @@
 //!   segments/    NNN.toml: segment NNN's seed file, the user's place to correct; NNN.csv: its
 //!                rows of tracks.csv, the checkpoint `resume` carries on from ([`segments`])
 //!   history/     NNN-tracks.csv, NNN-report.md: results a rerun replaced ([`folder`])
+//!   .lock        only while a command writes the folder: one writer at a time ([`lock`])
 //! ```
 //! Every file is written atomically (see [`crate::atomic`]).
 
 pub mod evidence;
 pub mod folder;
+pub mod lock;
 pub mod manifest;
 pub mod report;
 pub mod segments;
