@@ -117,6 +117,13 @@ impl VideoWriter {
         if !(fps.is_finite() && fps > 0.0) {
             return Err(err(format!("frame rate must be positive, got {fps}")));
         }
+        if path.to_str().is_none() {
+            // FFmpeg's bindings take the path as UTF-8 text.
+            return Err(Error::Usage(format!(
+                "{}: the path is not valid UTF-8, which FFmpeg cannot write; choose a UTF-8 name",
+                path.display()
+            )));
+        }
         let muxer = muxer_for(path).ok_or_else(|| {
             err("unsupported video file extension; use .mp4, .mkv, .mov or .avi".into())
         })?;
