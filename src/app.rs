@@ -367,6 +367,9 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         e => e,
     });
     let done = done.map_err(abandon)?;
+    if decode_stop.is_none() {
+        decode_stop = decode::short_of_duration(&info, done.frames);
+    }
     if decode_stop.is_some() {
         // The clip is damaged or cut short: say where decoding stopped, in run.toml too.
         session.manifest.decode_stop = decode_stop.clone();

@@ -74,3 +74,49 @@ fn paths_that_are_not_utf8_are_refused_without_a_panic() {
     assert!(!video.exists());
     assert!(temp_files(dir.path()).is_empty(), "{:?}", temp_files(dir.path()));
 }
+
+/// The sample clip re-encoded as MKV (which states a duration, not a frame count) at `path`.
+fn sample_as_mkv(path: &Path) {
+    let frames = mocap2d::decode::read_all(&walk("clip.mp4"), None).unwrap();
+    let mut w = mocap2d::encode::VideoWriter::create(path, 320, 240, 30.0, 18).unwrap();
+    for f in &frames {
+        w.write(f).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn a_truncated_mkv_is_tracked_with_a_decode_stop_and_a_whole_one_without() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = dir.path().join("whole.mkv");
+    sample_as_mkv(&whole);
+    let bytes = std::fs::read(&whole).unwrap();
+    let half = dir.path().join("half.mkv");
+    std::fs::write(&half, &bytes[..bytes.len() / 2]).unwrap();
+    let track = |clip: &Path| {
+        let out = clip.with_extension("mocap");
+        let o = run(&[
+            "track",
+            s(clip),
+            "--seeds",
+            s(&walk("joints.toml")),
+            "--out",
+            s(&out),
+            "-q",
+        ]);
+        assert_ok(&o);
+        let m = mocap2d::run::Manifest::read(&out.join("run.toml")).unwrap();
+        (stderr(&o), m)
+    };
+    let (err, m) = track(&whole);
+    assert!(!err.contains("warning"), "{err}");
+    assert_eq!((m.frames, m.decode_stop), (60, None));
+    let (err, m) = track(&half);
+    let stop = m.decode_stop.expect("a decode_stop in run.toml");
+    assert!(stop.frame < 50 && stop.frame == m.frames, "{stop:?}");
+    assert!(stop.reason.contains("about 60 frames"), "{stop:?}");
+    assert!(
+        err.contains("warning: the clip is damaged or cut short") && err.contains("about 60"),
+        "{err}"
+    );
+}
