@@ -253,7 +253,11 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 no_background: a.no_background,
                 segment_len: a.segment_len,
             };
-            let s = app::track(&opts, &bars)?;
+            let other = match a.replace {
+                true => app::OtherClip::Replace,
+                false => app::OtherClip::Refuse,
+            };
+            let s = app::track_into(&opts, other, &bars)?;
             print_summary("tracked", &s);
         }
         Command::Resume(a) => {

@@ -120,3 +120,129 @@ fn a_truncated_mkv_is_tracked_with_a_decode_stop_and_a_whole_one_without() {
         "{err}"
     );
 }
+
+/// Moves joint `joint`'s rectangle in the segment file at `path` by `dx` px (a user's edit).
+fn edit_segment(path: &Path, joint: &str, dx: f32) -> f32 {
+    let (seeds, text) = mocap2d::seed::read_seeds(path).unwrap();
+    let mut joints = seeds.joints.clone();
+    let j = joints.iter_mut().find(|j| j.name == joint).unwrap();
+    j.bbox.cx += dx;
+    let x = j.bbox.cx;
+    let comment: String = text
+        .lines()
+        .take_while(|l| l.starts_with('#'))
+        .map(|l| l.trim_start_matches('#').trim_start())
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(path, mocap2d::seed::to_toml(seeds.frame, &joints, &comment)).unwrap();
+    x
+}
+
+/// A batch re-run over a finished run whose segment file the user edited applies the edit
+/// (resumes the run) instead of reporting it `skipped`.
+#[test]
+fn a_batch_resumes_a_run_with_an_unapplied_edit_instead_of_skipping_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let shots = dir.path().join("shots");
+    std::fs::create_dir(&shots).unwrap();
+    let clip = mocap2d::synth::render(&mocap2d::synth::SynthOptions {
+        scenario: mocap2d::synth::Scenario::Walk,
+        width: 160,
+        height: 120,
+        seed: 1,
+        frames: Some(30),
+    });
+    mocap2d::synth::write_clip(&clip, dir.path()).unwrap();
+    std::fs::rename(dir.path().join("clip.mp4"), shots.join("c1.mp4")).unwrap();
+    std::fs::rename(dir.path().join("joints.toml"), shots.join("c1.toml")).unwrap();
+    let batch = || {
+        let o = bin()
+            .args(["batch", "shots", "--seeds", "{dir}/{stem}.toml", "-q"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert_ok(&o);
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    // The status column of the clip's row in the table.
+    let status = |table: String| -> String {
+        let row = table.lines().find(|l| l.starts_with("shots/c1.mp4"));
+        row.and_then(|l| l.split_whitespace().last())
+            .unwrap_or_else(|| panic!("{table}"))
+            .to_owned()
+    };
+    assert_eq!(status(batch()), "done");
+    let run_dir = shots.join("c1.mocap");
+    assert_eq!(status(batch()), "skipped", "nothing changed");
+    // The user moves the head on the clip's last frame (segment file 001).
+    let x = edit_segment(&run_dir.join("segments/001.toml"), "head", 6.0);
+    assert_eq!(status(batch()), "done", "the edit is applied, not skipped");
+    let rows = mocap2d::run::tracks::read_tracks(&run_dir.join("tracks.csv")).unwrap();
+    let head = rows.iter().rfind(|r| r.joint == "head").unwrap();
+    assert_eq!((head.frame, head.status.as_str()), (29, "seed"));
+    assert!((head.x - x).abs() < 0.01, "{} vs {x}", head.x);
+    assert_eq!(status(batch()), "skipped", "applied: nothing left to do");
+}
+
+/// `track --out` into the run folder of another clip is refused (exit 2, naming the clip it
+/// holds) and changes nothing; with `--replace` it is replaced, and the replaced run's
+/// tracks, run.toml and seed file are kept together in history/.
+#[test]
+fn track_into_another_clips_run_folder_is_refused_unless_replace() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.mocap");
+    let seeds = walk("joints.toml");
+    assert_ok(&run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&seeds),
+        "--out",
+        s(&out),
+        "-q",
+    ]));
+    let before: Vec<(PathBuf, Vec<u8>)> = files(&out)
+        .into_iter()
+        .map(|p| {
+            let b = std::fs::read(&p).unwrap();
+            (p, b)
+        })
+        .collect();
+    // Another clip: the sample re-encoded (other bytes, same frame size and seeds).
+    let other = dir.path().join("other.mkv");
+    sample_as_mkv(&other);
+    let args = |replace: bool| {
+        let mut a = vec!["track", s(&other), "--seeds", s(&seeds), "--out", s(&out), "-q"];
+        if replace {
+            a.push("--replace");
+        }
+        a
+    };
+    let o = run(&args(false));
+    assert_fails(&o, 2, &["run.toml", "another clip", "clip.mp4", "--replace"]);
+    let after: Vec<(PathBuf, Vec<u8>)> = files(&out)
+        .into_iter()
+        .map(|p| {
+            let b = std::fs::read(&p).unwrap();
+            (p, b)
+        })
+        .collect();
+    assert!(before == after, "the refused track changed the folder");
+
+    assert_ok(&run(&args(true)));
+    let m = mocap2d::run::Manifest::read(&out.join("run.toml")).unwrap();
+    assert_eq!(m.clip.path, s(&other));
+    let old = mocap2d::run::Manifest::read(&out.join("history/001-run.toml")).unwrap();
+    assert_eq!(old.clip.path, s(&walk("clip.mp4")));
+    let old_tracks = before.iter().find(|f| f.0.ends_with("tracks.csv")).unwrap();
+    assert_eq!(
+        std::fs::read(out.join("history/001-tracks.csv")).unwrap(),
+        old_tracks.1
+    );
+    assert_eq!(
+        std::fs::read(out.join("history/001-seeds.toml")).unwrap(),
+        std::fs::read(&seeds).unwrap()
+    );
+    // The same clip again needs no --replace.
+    assert_ok(&run(&args(false)));
+}

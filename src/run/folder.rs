@@ -126,6 +126,40 @@ pub fn archive_previous(run_dir: &Path) -> Result<Option<PathBuf>> {
     Ok(Some(dst))
 }
 
+/// Copies `run.toml` and `seeds.toml` (when there) beside `archived`, the `history/NNN-tracks.csv`
+/// [`archive_previous`] returned, as `NNN-run.toml` and `NNN-seeds.toml`: the archived tracks
+/// then still trace to their clip and seeds when a run of another clip replaces them. With no
+/// tracks archived (an unfinished run), they go to the next free NNN.
+pub fn archive_inputs(run_dir: &Path, archived: Option<&Path>) -> Result<()> {
+    let hist = run_dir.join(HISTORY_DIR);
+    std::fs::create_dir_all(&hist).map_err(|e| Error::io(&hist, e))?;
+    let prefix = match archived
+        .and_then(|p| p.file_name())
+        .and_then(|n| n.to_str())
+        .and_then(|n| n.strip_suffix("-tracks.csv"))
+    {
+        Some(p) => p.to_owned(),
+        None => {
+            let used = |n: u32| {
+                std::fs::read_dir(&hist).into_iter().flatten().flatten().any(|e| {
+                    e.file_name()
+                        .to_string_lossy()
+                        .starts_with(&format!("{n:03}-"))
+                })
+            };
+            format!("{:03}", (1..).find(|&n| !used(n)).unwrap_or(1))
+        }
+    };
+    for name in [RUN_TOML, "seeds.toml"] {
+        let src = run_dir.join(name);
+        if src.is_file() {
+            let bytes = std::fs::read(&src).map_err(|e| Error::io(&src, e))?;
+            crate::atomic::write(&hist.join(format!("{prefix}-{name}")), &bytes)?;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
