@@ -246,3 +246,53 @@ fn track_into_another_clips_run_folder_is_refused_unless_replace() {
     // The same clip again needs no --replace.
     assert_ok(&run(&args(false)));
 }
+
+/// A seed file of `n` joints on the sample's frame, each a 9 px square, chained by parents.
+fn many_joints(n: usize) -> String {
+    let mut t = String::from("frame = 0\n");
+    for i in 0..n {
+        let (x, y) = (10 + (i * 13) % 300, 10 + ((i * 13) / 300 * 11) % 220);
+        t += &format!("\n[[joint]]\nname = \"j{i}\"\nx = {x}\ny = {y}\nw = 9\nh = 9\n");
+        if i > 0 {
+            t += &format!("parent = \"j{}\"\n", i - 1);
+        }
+    }
+    t
+}
+
+/// 10,000 joints (tracking would never finish) are refused at once, naming the first joint
+/// over the limit by its line; a file at the limit reads.
+#[test]
+fn a_seed_file_over_the_joint_limit_is_refused_naming_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let seeds = dir.path().join("many.toml");
+    let text = many_joints(10_000);
+    std::fs::write(&seeds, &text).unwrap();
+    let line = 1 + text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| *l == "[[joint]]")
+        .nth(mocap2d::seed::MAX_JOINTS)
+        .unwrap()
+        .0;
+    let out = dir.path().join("r.mocap");
+    let t = std::time::Instant::now();
+    let o = run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&seeds),
+        "--out",
+        s(&out),
+    ]);
+    assert_fails(
+        &o,
+        2,
+        &[&format!("many.toml: line {line}: "), "10000 joints", "limit of 256"],
+    );
+    assert!(t.elapsed() < std::time::Duration::from_secs(10));
+    assert!(!out.exists());
+    std::fs::write(&seeds, many_joints(mocap2d::seed::MAX_JOINTS)).unwrap();
+    let (s256, _) = mocap2d::seed::read_seeds(&seeds).unwrap();
+    assert_eq!(s256.joints.len(), 256);
+}
