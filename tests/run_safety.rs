@@ -296,3 +296,74 @@ fn a_seed_file_over_the_joint_limit_is_refused_naming_the_line() {
     let (s256, _) = mocap2d::seed::read_seeds(&seeds).unwrap();
     assert_eq!(s256.joints.len(), 256);
 }
+
+/// The robot character in `dir` with `edit` applied to its text (the image copied beside it).
+fn robot_with(dir: &Path, name: &str, edit: impl Fn(&str) -> String) -> PathBuf {
+    std::fs::copy(robot().with_file_name("robot.png"), dir.join("robot.png")).unwrap();
+    let text = std::fs::read_to_string(robot()).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, edit(&text)).unwrap();
+    p
+}
+
+/// A character with a zero-length bone, or with every joint on one point, is refused by
+/// `retarget` and `render` (exit 2) naming the joint and its line; nothing is written.
+#[test]
+fn a_character_with_a_zero_length_bone_is_refused_naming_the_joint() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r.mocap");
+    assert_ok(&run(&[
+        "track",
+        s(&walk("clip.mp4")),
+        "--seeds",
+        s(&walk("joints.toml")),
+        "--out",
+        s(&out),
+        "-q",
+    ]));
+    // The neck placed on the chest (x = 168.8, y = 118.0).
+    let on_parent = robot_with(dir.path(), "neck.toml", |t| {
+        t.replace("x = 169.2\ny = 90.0\n", "x = 168.8\ny = 118.0\n")
+    });
+    let neck_line = 1 + std::fs::read_to_string(&on_parent)
+        .unwrap()
+        .lines()
+        .position(|l| l == "name = \"neck\"")
+        .unwrap()
+        - 1;
+    // Every joint on the pelvis.
+    let one_point = robot_with(dir.path(), "point.toml", |t| {
+        t.lines()
+            .map(|l| match l {
+                l if l.starts_with("x = ") => "x = 173.8".to_owned(),
+                l if l.starts_with("y = ") => "y = 229.9".to_owned(),
+                l => l.to_owned(),
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    });
+    let video = dir.path().join("v.mp4");
+    for (character, joint, line) in [
+        (&on_parent, "\"neck\"", Some(neck_line)),
+        (&one_point, "\"chest\"", None),
+    ] {
+        let o = run(&["retarget", s(&out), "--target", s(character)]);
+        let mut parts = vec![joint, "0.00 px long", "move this joint"];
+        let at = line.map(|l| format!("line {l}: "));
+        if let Some(at) = &at {
+            parts.push(at);
+        }
+        assert_fails(&o, 2, &parts);
+        assert!(!out.join("retarget").exists(), "nothing written");
+        let o = run(&[
+            "render",
+            s(&out),
+            "--target",
+            s(character),
+            "--out",
+            s(&video),
+        ]);
+        assert_fails(&o, 2, &parts);
+        assert!(!video.exists());
+    }
+}
