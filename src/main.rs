@@ -440,10 +440,15 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INTERRUPTED)
         }
         Err(e) => {
-            eprintln!("mocap2d: {e}");
+            let msg = e.to_string();
+            eprintln!("mocap2d: {msg}");
+            // Causes the message does not already say (an I/O error's is in it).
             let mut src = std::error::Error::source(&e);
             while let Some(s) = src {
-                eprintln!("  caused by: {s}");
+                let cause = s.to_string();
+                if !msg.contains(&cause) {
+                    eprintln!("  caused by: {cause}");
+                }
                 src = s.source();
             }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })

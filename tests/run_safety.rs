@@ -367,3 +367,69 @@ fn a_character_with_a_zero_length_bone_is_refused_naming_the_joint() {
         assert!(!video.exists());
     }
 }
+
+/// `resume` finds the clip beside the run folder, as `review` does, when both moved together.
+#[test]
+fn resume_finds_the_clip_beside_a_moved_run_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let work = dir.path().join("work");
+    std::fs::create_dir(&work).unwrap();
+    std::fs::copy(walk("clip.mp4"), work.join("clip.mp4")).unwrap();
+    let o = bin()
+        .args(["track", "clip.mp4", "--seeds", s(&walk("joints.toml")), "-q"])
+        .args(["--segment-len", "20"])
+        .current_dir(&work)
+        .output()
+        .unwrap();
+    assert_ok(&o);
+    let moved = dir.path().join("moved");
+    std::fs::rename(&work, &moved).unwrap();
+    // From another working directory, without --clip.
+    let o = bin()
+        .args(["resume", s(&moved.join("clip.mocap")), "--segment", "1", "-q"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_ok(&o);
+    assert!(moved.join("clip.mocap/history/001-tracks.csv").is_file());
+}
+
+/// A changed `frame` in a segment file is reported at its own line (the file starts with
+/// comments), and an I/O error's cause is not printed twice.
+#[test]
+fn messages_name_the_frame_line_and_say_an_os_error_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r.mocap");
+    let track = |out: &Path| {
+        run(&[
+            "track",
+            s(&walk("clip.mp4")),
+            "--seeds",
+            s(&walk("joints.toml")),
+            "--out",
+            s(out),
+            "--segment-len",
+            "20",
+            "-q",
+        ])
+    };
+    assert_ok(&track(&out));
+    let seg = out.join("segments/001.toml");
+    let text = std::fs::read_to_string(&seg).unwrap();
+    let line = 1 + text.lines().position(|l| l == "frame = 20").unwrap();
+    assert!(line > 1, "{text}");
+    std::fs::write(&seg, text.replace("frame = 20", "frame = 21")).unwrap();
+    let o = run(&["resume", s(&out), "-q"]);
+    assert_fails(
+        &o,
+        2,
+        &[&format!("001.toml: line {line}: frame = 21"), "set it back to 20"],
+    );
+
+    let file = dir.path().join("file.txt");
+    std::fs::write(&file, "not a folder").unwrap();
+    let o = track(&file.join("r.mocap"));
+    let err = assert_fails(&o, 1, &["file.txt", "os error"]);
+    assert_eq!(err.matches("os error").count(), 1, "{err}");
+    assert!(!err.contains("caused by"), "{err}");
+}
