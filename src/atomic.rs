@@ -32,6 +32,38 @@ pub fn write(path: &Path, bytes: &[u8]) -> Result<()> {
     write_with(path, |f| f.write_all(bytes))
 }
 
+/// Writes `bytes` to `path` atomically unless `keep_old()`, asked once the new bytes are on
+/// disk beside it, just before they would replace it, says the file there must stay (say, the
+/// user edited it meanwhile). Returns whether `path` was written. The check and the rename are
+/// not one step: a change in between still wins over nothing, but the window is microseconds,
+/// not the whole write.
+pub fn write_unless(
+    path: &Path,
+    bytes: &[u8],
+    keep_old: impl FnOnce() -> Result<bool>,
+) -> Result<bool> {
+    let tmp = temp_path(path);
+    let staged = (|| -> std::io::Result<()> {
+        let mut file = std::fs::File::create(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()
+    })();
+    if let Err(e) = staged {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::io(path, e));
+    }
+    let keep = keep_old();
+    if !matches!(keep, Ok(false)) {
+        let _ = std::fs::remove_file(&tmp);
+        return keep.map(|_| false);
+    }
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io(path, e)
+    })?;
+    Ok(true)
+}
+
 /// Writes `path` atomically with a closure that fills a buffered writer.
 pub fn write_with(
     path: &Path,
@@ -63,6 +95,22 @@ mod tests {
         super::write(&p, b"one").unwrap();
         super::write(&p, b"two").unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+        assert_eq!(left.len(), 1, "{left:?}");
+    }
+
+    #[test]
+    fn write_unless_keeps_the_old_file_when_asked_and_leaves_no_temp() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.txt");
+        std::fs::write(&p, b"user").unwrap();
+        assert!(!super::write_unless(&p, b"tool", || Ok(true)).unwrap());
+        assert_eq!(std::fs::read(&p).unwrap(), b"user");
+        assert!(super::write_unless(&p, b"tool", || Ok(false)).unwrap());
+        assert_eq!(std::fs::read(&p).unwrap(), b"tool");
+        let failed = super::write_unless(&p, b"x", || Err(crate::Error::Interrupted));
+        assert!(failed.is_err());
+        assert_eq!(std::fs::read(&p).unwrap(), b"tool");
         let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
         assert_eq!(left.len(), 1, "{left:?}");
     }

@@ -69,6 +69,17 @@ pub fn check_no_corrections(run_dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Writes a tool-made segment file `path` (the next segment's, at a checkpoint) unless the file
+/// there became a correction meanwhile: its hash is none of `written`, the hashes mocap2d
+/// recorded writing it. A file the user saved (by hand, or from a page before the run-folder
+/// lock existed) between the checkpoint's look and its write is then kept, never replaced.
+/// Returns whether `path` was written.
+pub fn write_segment_unless_corrected(path: &Path, text: &str, written: &[String]) -> Result<bool> {
+    crate::atomic::write_unless(path, text.as_bytes(), || {
+        Ok(hash_file(path)?.is_some_and(|h| !written.contains(&h)))
+    })
+}
+
 /// Removes every segment file (`segments/NNN.toml`, `NNN.csv`): a new run starts afresh.
 /// Call [`check_no_corrections`] first.
 pub fn clear_segments(run_dir: &Path) -> Result<()> {
@@ -186,6 +197,22 @@ mod tests {
             "ra"
         );
         assert!(!r.join("tracks.csv").exists());
+    }
+
+    #[test]
+    fn a_segment_file_edited_before_the_checkpoint_writes_it_is_kept() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("002.toml");
+        let tool = crate::run::segments::hash_bytes(b"frame = 3 # tool");
+        // Missing, or as mocap2d wrote it: written.
+        assert!(write_segment_unless_corrected(&p, "frame = 3 # tool", &[tool.clone()]).unwrap());
+        assert!(write_segment_unless_corrected(&p, "frame = 3 # new", &[tool.clone()]).unwrap());
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "frame = 3 # new");
+        // Edited by the user since: kept.
+        std::fs::write(&p, "frame = 3 # user").unwrap();
+        let new = crate::run::segments::hash_bytes(b"frame = 3 # new");
+        assert!(!write_segment_unless_corrected(&p, "frame = 3 # again", &[tool, new]).unwrap());
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "frame = 3 # user");
     }
 
     #[test]
