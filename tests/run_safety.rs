@@ -72,7 +72,11 @@ fn paths_that_are_not_utf8_are_refused_without_a_panic() {
     ]);
     assert_fails(&o, 2, &["not valid UTF-8"]);
     assert!(!video.exists());
-    assert!(temp_files(dir.path()).is_empty(), "{:?}", temp_files(dir.path()));
+    assert!(
+        temp_files(dir.path()).is_empty(),
+        "{:?}",
+        temp_files(dir.path())
+    );
 }
 
 /// The sample clip re-encoded as MKV (which states a duration, not a frame count) at `path`.
@@ -212,14 +216,26 @@ fn track_into_another_clips_run_folder_is_refused_unless_replace() {
     let other = dir.path().join("other.mkv");
     sample_as_mkv(&other);
     let args = |replace: bool| {
-        let mut a = vec!["track", s(&other), "--seeds", s(&seeds), "--out", s(&out), "-q"];
+        let mut a = vec![
+            "track",
+            s(&other),
+            "--seeds",
+            s(&seeds),
+            "--out",
+            s(&out),
+            "-q",
+        ];
         if replace {
             a.push("--replace");
         }
         a
     };
     let o = run(&args(false));
-    assert_fails(&o, 2, &["run.toml", "another clip", "clip.mp4", "--replace"]);
+    assert_fails(
+        &o,
+        2,
+        &["run.toml", "another clip", "clip.mp4", "--replace"],
+    );
     let after: Vec<(PathBuf, Vec<u8>)> = files(&out)
         .into_iter()
         .map(|p| {
@@ -288,7 +304,11 @@ fn a_seed_file_over_the_joint_limit_is_refused_naming_the_line() {
     assert_fails(
         &o,
         2,
-        &[&format!("many.toml: line {line}: "), "10000 joints", "limit of 256"],
+        &[
+            &format!("many.toml: line {line}: "),
+            "10000 joints",
+            "limit of 256",
+        ],
     );
     assert!(t.elapsed() < std::time::Duration::from_secs(10));
     assert!(!out.exists());
@@ -376,7 +396,13 @@ fn resume_finds_the_clip_beside_a_moved_run_folder() {
     std::fs::create_dir(&work).unwrap();
     std::fs::copy(walk("clip.mp4"), work.join("clip.mp4")).unwrap();
     let o = bin()
-        .args(["track", "clip.mp4", "--seeds", s(&walk("joints.toml")), "-q"])
+        .args([
+            "track",
+            "clip.mp4",
+            "--seeds",
+            s(&walk("joints.toml")),
+            "-q",
+        ])
         .args(["--segment-len", "20"])
         .current_dir(&work)
         .output()
@@ -386,7 +412,13 @@ fn resume_finds_the_clip_beside_a_moved_run_folder() {
     std::fs::rename(&work, &moved).unwrap();
     // From another working directory, without --clip.
     let o = bin()
-        .args(["resume", s(&moved.join("clip.mocap")), "--segment", "1", "-q"])
+        .args([
+            "resume",
+            s(&moved.join("clip.mocap")),
+            "--segment",
+            "1",
+            "-q",
+        ])
         .current_dir(dir.path())
         .output()
         .unwrap();
@@ -423,7 +455,10 @@ fn messages_name_the_frame_line_and_say_an_os_error_once() {
     assert_fails(
         &o,
         2,
-        &[&format!("001.toml: line {line}: frame = 21"), "set it back to 20"],
+        &[
+            &format!("001.toml: line {line}: frame = 21"),
+            "set it back to 20",
+        ],
     );
 
     let file = dir.path().join("file.txt");

@@ -498,14 +498,25 @@ fn a_save_while_resume_runs_is_refused_and_the_correction_then_survives() {
         msg.contains(&pid) && msg.contains("resume") && msg.contains("not saved"),
         "{msg}"
     );
-    assert!(still_running, "the resume ended before the save; lengthen the clip");
-    assert_eq!(std::fs::read(&file).unwrap(), tool_written, "refused, unchanged");
+    assert!(
+        still_running,
+        "the resume ended before the save; lengthen the clip"
+    );
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        tool_written,
+        "refused, unchanged"
+    );
     assert!(child.wait().unwrap().success());
 
     // After the resume: saved, and kept by the next resume, which tracks from it.
     let body = save_body(&srv, "002", 9.0);
     let (st, r) = srv.json("POST", "/api/segments/002", body.as_bytes());
-    assert_eq!((st, &r["saved"]), (200, &serde_json::Value::Bool(true)), "{r}");
+    assert_eq!(
+        (st, &r["saved"]),
+        (200, &serde_json::Value::Bool(true)),
+        "{r}"
+    );
     let corrected = std::fs::read(&file).unwrap();
     assert_ne!(corrected, tool_written);
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_mocap2d"))
@@ -513,7 +524,11 @@ fn a_save_while_resume_runs_is_refused_and_the_correction_then_survives() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_eq!(std::fs::read(&file).unwrap(), corrected, "the correction is kept");
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        corrected,
+        "the correction is kept"
+    );
 }
 
 /// Sends `head` (the request head, `\r\n\r\n` included) and `body` on a new connection and
@@ -527,7 +542,10 @@ fn status_of(srv: &Served, head: &str, body: &[u8]) -> u16 {
     let mut out = Vec::new();
     let _ = s.read_to_end(&mut out);
     let text = String::from_utf8_lossy(&out);
-    text.split(' ').nth(1).and_then(|c| c.parse().ok()).unwrap_or_else(|| panic!("{text:?}"))
+    text.split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or_else(|| panic!("{text:?}"))
 }
 
 /// How long a `GET /api/run` takes, asserting it answers 200.
@@ -580,7 +598,8 @@ fn a_stalled_request_does_not_block_other_clients() {
     body.write_all(head.as_bytes()).unwrap();
     stalled.push(body);
     let mut half = TcpStream::connect(srv.addr).unwrap();
-    half.write_all(b"GET /api/run HTTP/1.1\r\nHost: 127.0").unwrap();
+    half.write_all(b"GET /api/run HTTP/1.1\r\nHost: 127.0")
+        .unwrap();
     stalled.push(half);
     stalled.push(TcpStream::connect(srv.addr).unwrap());
     std::thread::sleep(std::time::Duration::from_millis(200));
@@ -599,7 +618,13 @@ fn a_stalled_request_does_not_block_other_clients() {
     cut.shutdown(std::net::Shutdown::Write).unwrap();
     let mut out = Vec::new();
     let _ = cut.read_to_end(&mut out);
-    assert!(String::from_utf8_lossy(&out).starts_with("HTTP/1.1 400"), "{out:?}");
-    assert_eq!(std::fs::read(run.join("segments/001.toml")).unwrap(), before);
+    assert!(
+        String::from_utf8_lossy(&out).starts_with("HTTP/1.1 400"),
+        "{out:?}"
+    );
+    assert_eq!(
+        std::fs::read(run.join("segments/001.toml")).unwrap(),
+        before
+    );
     drop(stalled);
 }

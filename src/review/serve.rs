@@ -177,7 +177,10 @@ impl Server {
                 break i;
             }
             if data.len() > MAX_HEAD {
-                return Err(Reply::error(431, format!("request head over {MAX_HEAD} bytes")));
+                return Err(Reply::error(
+                    431,
+                    format!("request head over {MAX_HEAD} bytes"),
+                ));
             }
             let n = read_by(&mut stream, &mut buf, deadline).map_err(|_| timeout())?;
             if n == 0 {
@@ -186,7 +189,10 @@ impl Server {
             data.extend_from_slice(&buf[..n]);
         };
         if head_end > MAX_HEAD {
-            return Err(Reply::error(431, format!("request head over {MAX_HEAD} bytes")));
+            return Err(Reply::error(
+                431,
+                format!("request head over {MAX_HEAD} bytes"),
+            ));
         }
         let bad = |m: &str| Reply::error(400, format!("malformed request: {m}"));
         let head = std::str::from_utf8(&data[..head_end]).map_err(|_| bad("head is not UTF-8"))?;
@@ -225,11 +231,16 @@ impl Server {
             .collect();
         let len: u64 = match lengths.as_slice() {
             [] => 0,
-            [v] => v.parse().map_err(|_| bad("Content-Length is not a number"))?,
+            [v] => v
+                .parse()
+                .map_err(|_| bad("Content-Length is not a number"))?,
             _ => return Err(bad("more than one Content-Length")),
         };
         if len > MAX_BODY as u64 {
-            return Err(Reply::error(413, format!("request body over {MAX_BODY} bytes")));
+            return Err(Reply::error(
+                413,
+                format!("request body over {MAX_BODY} bytes"),
+            ));
         }
         if let Some(refused) = self.refuse(&req) {
             return Err(refused);
@@ -289,11 +300,8 @@ impl Server {
         let route = || {
             // Saves from the page wait for each other; `track` or `resume` holding the run
             // folder makes a save answer 409 (see `Api::save`).
-            let _one = (req.method == "POST").then(|| {
-                self.saving
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-            });
+            let _one = (req.method == "POST")
+                .then(|| self.saving.lock().unwrap_or_else(|e| e.into_inner()));
             route(&self.api, &req.method, &req.target, &req.body)
         };
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(route))

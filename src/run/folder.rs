@@ -152,11 +152,15 @@ pub fn archive_inputs(run_dir: &Path, archived: Option<&Path>) -> Result<()> {
         Some(p) => p.to_owned(),
         None => {
             let used = |n: u32| {
-                std::fs::read_dir(&hist).into_iter().flatten().flatten().any(|e| {
-                    e.file_name()
-                        .to_string_lossy()
-                        .starts_with(&format!("{n:03}-"))
-                })
+                std::fs::read_dir(&hist)
+                    .into_iter()
+                    .flatten()
+                    .flatten()
+                    .any(|e| {
+                        e.file_name()
+                            .to_string_lossy()
+                            .starts_with(&format!("{n:03}-"))
+                    })
             };
             format!("{:03}", (1..).find(|&n| !used(n)).unwrap_or(1))
         }
@@ -205,8 +209,16 @@ mod tests {
         let p = d.path().join("002.toml");
         let tool = crate::run::segments::hash_bytes(b"frame = 3 # tool");
         // Missing, or as mocap2d wrote it: written.
-        assert!(write_segment_unless_corrected(&p, "frame = 3 # tool", &[tool.clone()]).unwrap());
-        assert!(write_segment_unless_corrected(&p, "frame = 3 # new", &[tool.clone()]).unwrap());
+        assert!(write_segment_unless_corrected(
+            &p,
+            "frame = 3 # tool",
+            std::slice::from_ref(&tool)
+        )
+        .unwrap());
+        assert!(
+            write_segment_unless_corrected(&p, "frame = 3 # new", std::slice::from_ref(&tool))
+                .unwrap()
+        );
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "frame = 3 # new");
         // Edited by the user since: kept.
         std::fs::write(&p, "frame = 3 # user").unwrap();
