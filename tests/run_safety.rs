@@ -291,6 +291,8 @@ fn a_seed_file_over_the_joint_limit_is_refused_naming_the_line() {
         .nth(mocap2d::seed::MAX_JOINTS)
         .unwrap()
         .0;
+    // Refused by the parser (before the binary, whose tracking would not end if it were not).
+    assert!(mocap2d::seed::read_seeds(&seeds).is_err());
     let out = dir.path().join("r.mocap");
     let t = std::time::Instant::now();
     let o = run(&[

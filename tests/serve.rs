@@ -105,6 +105,9 @@ impl Served {
     /// As [`Served::raw`] with the given header lines (`\r\n`-separated).
     fn raw_with(&self, method: &str, target: &str, headers: &str, body: &[u8]) -> (u16, Vec<u8>) {
         let mut s = TcpStream::connect(self.addr).unwrap();
+        // A server that stops answering fails the test instead of hanging it.
+        s.set_read_timeout(Some(std::time::Duration::from_secs(20)))
+            .unwrap();
         let head = format!(
             "{method} {target} HTTP/1.0\r\n{headers}\r\nConnection: close\r\n\
              Content-Length: {}\r\n\r\n",
