@@ -263,12 +263,13 @@ impl Api {
         // be overwritten by it, so it is refused (the page keeps the edit to save again).
         let _lock = match crate::run::lock::RunLock::acquire(&self.data.dir, "serve (a save)") {
             Ok(l) => l,
-            Err(e) => {
+            Err(e @ Error::RunFolder { .. }) => {
                 return Reply::error(
                     409,
                     format!("{e}; your edit is not saved: save it again once that is done"),
                 )
             }
+            Err(e) => return Reply::error(500, format!("{e}; your edit is not saved")),
         };
         let (seeds, old_text) = match crate::seed::read_seeds(&path) {
             Ok(s) => s,
