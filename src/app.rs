@@ -229,9 +229,30 @@ pub fn track_frames(
     Ok(count)
 }
 
+/// What `track` does with a run folder that holds the run of another clip (another content).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum OtherClip {
+    /// Refuse (exit 2), naming the clip it holds: the default.
+    #[default]
+    Refuse,
+    /// Replace it (`track --replace`, and `batch`, whose run folders are its own): its
+    /// `tracks.csv`, `report.md`, `run.toml` and `seeds.toml` go to `history/` first.
+    Replace,
+}
+
 /// `mocap2d track`: decode → background → track segment by segment, writing the run folder
-/// (see [`crate::run`]). A run folder that holds corrections is refused (resume applies them).
+/// (see [`crate::run`]). A run folder that holds corrections is refused (resume applies them),
+/// and so is one that holds another clip's run (see [`track_into`]).
 pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummary> {
+    track_into(opts, OtherClip::Refuse, progress)
+}
+
+/// [`track`], saying what to do with a run folder that holds another clip's run.
+pub fn track_into(
+    opts: &TrackOptions,
+    other_clip: OtherClip,
+    progress: &dyn Progress,
+) -> Result<TrackSummary> {
     // Validate everything before anything is written.
     let (seeds, seed_text, note) = match &opts.dlc {
         None => {
@@ -290,16 +311,49 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
             run_dir.display()
         )));
     }
-    folder::check_no_corrections(&run_dir)?;
+    // One writer at a time: the folder is made (if new) to hold the lock, and every check of
+    // what it holds is made under the lock.
+    // The outermost folder this run makes (the run folder, or a missing parent of it).
+    let created = run_dir
+        .ancestors()
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .last()
+        .map(Path::to_path_buf);
+    let created_dir = created.is_some();
+    std::fs::create_dir_all(&run_dir).map_err(|e| Error::io(&run_dir, e))?;
+    let _lock = crate::run::lock::RunLock::acquire(&run_dir, "track")?;
+    // Until the run starts, a failure (or Ctrl-C) leaves nothing behind in folders it made.
+    let unmake = |e: Error| -> Error {
+        if let Some(c) = &created {
+            let _ = std::fs::remove_dir_all(c);
+        }
+        e
+    };
+    folder::check_no_corrections(&run_dir).map_err(unmake)?;
     progress.start("background", None);
-    let (background, bg_desc) = background_for(opts, info.width, info.height, Some(&seeds))?;
+    let (background, bg_desc) =
+        background_for(opts, info.width, info.height, Some(&seeds)).map_err(unmake)?;
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
-    let (bytes, blake3) = hash_clip(&opts.clip)?;
-
-    let created_dir = !run_dir.exists();
-    std::fs::create_dir_all(run_dir.join(segments::SEGMENTS_DIR))
-        .map_err(|e| Error::io(&run_dir, e))?;
+    let (bytes, blake3) = hash_clip(&opts.clip).map_err(unmake)?;
+    // The folder may hold the run of another clip: replaced only when asked, its inputs kept.
+    let other = Manifest::read(&run_dir.join(crate::run::manifest::RUN_TOML))
+        .ok()
+        .filter(|m| m.clip.bytes != bytes || m.clip.blake3 != blake3);
+    if let (Some(m), OtherClip::Refuse) = (&other, other_clip) {
+        return Err(Error::RunFolder {
+            path: run_dir.join(crate::run::manifest::RUN_TOML),
+            msg: format!(
+                "this run folder holds the run of another clip ({}, {} bytes, blake3 {}), whose \
+                 seed file, segment files and run.toml `track` would replace; track into another \
+                 --out, or add --replace to replace it (its tracks.csv, report.md, run.toml and \
+                 seeds.toml are kept in history/)",
+                m.clip.path,
+                m.clip.bytes,
+                &m.clip.blake3[..16.min(m.clip.blake3.len())]
+            ),
+        });
+    }
     // On failure leave nothing behind in a folder this run made; an interrupted run keeps its
     // checkpoint for `resume`.
     let abandon = |e: Error| -> Error {
@@ -308,8 +362,20 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         }
         e
     };
+
+    std::fs::create_dir_all(run_dir.join(segments::SEGMENTS_DIR))
+        .map_err(|e| unmake(Error::io(&run_dir, e)))?;
     let start = prepare_new_run(
-        &run_dir, &seeds, &seed_text, opts, &info, bg_desc, threshold, bytes, blake3,
+        &run_dir,
+        &seeds,
+        &seed_text,
+        opts,
+        &info,
+        bg_desc,
+        threshold,
+        bytes,
+        blake3,
+        other.is_some(),
     )
     .map_err(abandon)?;
     let names: Vec<String> = seeds.joints.iter().map(|j| j.name.clone()).collect();
@@ -349,6 +415,9 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
         e => e,
     });
     let done = done.map_err(abandon)?;
+    if decode_stop.is_none() {
+        decode_stop = decode::short_of_duration(&info, done.frames);
+    }
     if decode_stop.is_some() {
         // The clip is damaged or cut short: say where decoding stopped, in run.toml too.
         session.manifest.decode_stop = decode_stop.clone();
@@ -374,7 +443,8 @@ pub fn track(opts: &TrackOptions, progress: &dyn Progress) -> Result<TrackSummar
     Ok(summary)
 }
 
-/// Writes what a new run starts from: earlier results into `history/`, `seeds.toml`, the
+/// Writes what a new run starts from: earlier results into `history/` (with `keep_inputs`, the
+/// earlier `run.toml` and `seeds.toml` too: another clip's run), `seeds.toml`, the
 /// manifest (incomplete, nothing tracked) and `segments/000.toml` from the seeds. Returns the
 /// manifest.
 #[allow(clippy::too_many_arguments)]
@@ -388,9 +458,13 @@ fn prepare_new_run(
     threshold: u32,
     bytes: u64,
     blake3: String,
+    keep_inputs: bool,
 ) -> Result<Manifest> {
     folder::remove_temp_files(run_dir)?;
-    folder::archive_previous(run_dir)?;
+    let archived = folder::archive_previous(run_dir)?;
+    if keep_inputs {
+        folder::archive_inputs(run_dir, archived.as_deref())?;
+    }
     folder::clear_segments(run_dir)?;
     let _ = std::fs::remove_file(run_dir.join("report.md"));
     let at_seed: Vec<JointEstimate> = seeds

@@ -275,16 +275,23 @@ fn stages(
         params: opts.params.clone(),
         ..TrackOptions::new(clip, opts.seeds.for_clip(clip))
     };
-    let tracked = match skip::finished_track(run_dir, &track) {
-        Some(m) => {
+    let finished = skip::finished_track(run_dir, &track);
+    // A finished run whose segment files hold an edit not yet applied is resumed, not skipped.
+    let edited = finished
+        .as_ref()
+        .is_some_and(|m| skip::unapplied_edit(run_dir, m).is_some());
+    let tracked = match finished {
+        Some(m) if !edited => {
             outcome.frames = Some(m.frames.saturating_sub(m.seed_frame));
             false
         }
-        None => {
+        _ => {
             let start = Instant::now();
-            // An interrupted run carries on from its checkpoint; its speed is not measured.
-            let resumed = match skip::unfinished_track(run_dir, &track) {
-                Some(_) => app::resume(
+            // An interrupted run carries on from its checkpoint, an edited one from its first
+            // edited segment; their speed is not measured.
+            let resumable = edited || skip::unfinished_track(run_dir, &track).is_some();
+            let resumed = match resumable {
+                true => app::resume(
                     &app::ResumeOptions {
                         run: run_dir.to_owned(),
                         segment: None,
@@ -293,12 +300,13 @@ fn stages(
                     },
                     progress,
                 )?,
-                None => None,
+                false => None,
             };
             let fresh = resumed.is_none();
             let s = match resumed {
                 Some(s) => s,
-                None => app::track(&track, progress)?,
+                // The run folder is the batch's own: a changed clip is tracked again.
+                None => app::track_into(&track, app::OtherClip::Replace, progress)?,
             };
             outcome.frames = Some(s.tracked_frames);
             if fresh {

@@ -364,6 +364,9 @@ pub fn parse_character(text: &str, path: &Path) -> Result<Character> {
         }
         rest.push(Point::new(x, y));
     }
+    if let Some((i, msg)) = short_bone(&skeleton, &rest) {
+        return Err(err(line_of(i), Some(&skeleton.names[i]), msg));
+    }
     for t in raw.map.keys() {
         if skeleton.index_of(t).is_none() {
             return Err(err(
@@ -419,6 +422,30 @@ pub fn parse_character(text: &str, path: &Path) -> Result<Character> {
         bones,
         lines,
         blake3: blake3::hash(text.as_bytes()).to_hex().to_string(),
+    })
+}
+
+/// Shortest bone a character may have, px at rest: a shorter one has no direction to turn.
+pub const MIN_BONE_PX: f32 = 1.0;
+
+/// The first joint whose bone (from its parent, at rest) is shorter than [`MIN_BONE_PX`], with
+/// the message naming it: such a bone (a joint placed on its parent, or every joint on one
+/// point) cannot show any motion.
+fn short_bone(skeleton: &Skeleton, rest: &[Point]) -> Option<(usize, String)> {
+    (0..rest.len()).find_map(|j| {
+        let p = skeleton.parents[j]?;
+        let (a, b) = (rest[p], rest[j]);
+        let len = ((b.x - a.x).powi(2) + (b.y - a.y).powi(2)).sqrt();
+        (len < MIN_BONE_PX).then(|| {
+            (
+                j,
+                format!(
+                    "the bone from {:?} is {len:.2} px long at rest (the joint at ({}, {})); a bone \
+                     needs at least {MIN_BONE_PX} px to turn: move this joint away from its parent",
+                    skeleton.names[p], b.x, b.y
+                ),
+            )
+        })
     })
 }
 

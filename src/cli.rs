@@ -342,6 +342,10 @@ pub struct TrackArgs {
     #[arg(long, value_name = "N", default_value_t = crate::app::DEFAULT_SEGMENT_LEN,
           value_parser = clap::value_parser!(u64).range(1..))]
     pub segment_len: u64,
+    /// Replace the run folder even when it holds the run of another clip (its tracks.csv,
+    /// report.md, run.toml and seeds.toml are kept in history/).
+    #[arg(long)]
+    pub replace: bool,
 }
 
 #[derive(Debug, clap::Args)]

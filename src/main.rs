@@ -253,7 +253,11 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 no_background: a.no_background,
                 segment_len: a.segment_len,
             };
-            let s = app::track(&opts, &bars)?;
+            let other = match a.replace {
+                true => app::OtherClip::Replace,
+                false => app::OtherClip::Refuse,
+            };
+            let s = app::track_into(&opts, other, &bars)?;
             print_summary("tracked", &s);
         }
         Command::Resume(a) => {
@@ -457,10 +461,15 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INTERRUPTED)
         }
         Err(e) => {
-            eprintln!("mocap2d: {e}");
+            let msg = e.to_string();
+            eprintln!("mocap2d: {msg}");
+            // Causes the message does not already say (an I/O error's is in it).
             let mut src = std::error::Error::source(&e);
             while let Some(s) = src {
-                eprintln!("  caused by: {s}");
+                let cause = s.to_string();
+                if !msg.contains(&cause) {
+                    eprintln!("  caused by: {cause}");
+                }
                 src = s.source();
             }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })

@@ -220,7 +220,11 @@ fn a_bad_clip_is_reported_and_the_others_go_on() {
         lines[3].starts_with("shots/c2.mp4,shots/c2.mocap,30,"),
         "{csv}"
     );
-    assert!(!s.path("batch-summary.csv.tmp").exists());
+    assert!(
+        temp_files(&s.path("")).is_empty(),
+        "{:?}",
+        temp_files(&s.path(""))
+    );
 }
 
 #[test]

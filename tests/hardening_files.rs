@@ -134,35 +134,49 @@ fn ten_megabyte_seed_file_is_refused_quickly() {
     assert_mentions(&m, &[&p.display().to_string(), "4 MiB"]);
 }
 
-/// 10 000 joints, each the parent of the next (a chain 10 000 deep): parsed in well under a
-/// second in release builds, the skeleton walks iteratively.
+/// 10 000 joints, each the parent of the next: refused at once, over the limit of
+/// `MAX_JOINTS` (tracking them would never finish), naming the line of the first one over.
+/// A chain at the limit parses in well under a second in release builds, the skeleton walked
+/// iteratively, and a cycle through all of it is found, not followed forever.
 #[test]
-fn ten_thousand_joints_parse_quickly() {
-    let mut text = String::from("frame = 0\n");
-    for i in 0..10_000 {
-        text.push_str(&format!(
-            "[[joint]]\nname = \"j{i}\"\nx = {}\ny = {}\nw = 9\nh = 9\n",
-            10 + i % 100,
-            10 + i / 100
-        ));
-        if i > 0 {
-            text.push_str(&format!("parent = \"j{}\"\n", i - 1));
+fn ten_thousand_joints_are_refused_quickly_and_a_full_chain_parses() {
+    let chain = |n: usize| {
+        let mut text = String::from("frame = 0\n");
+        for i in 0..n {
+            text.push_str(&format!(
+                "[[joint]]\nname = \"j{i}\"\nx = {}\ny = {}\nw = 9\nh = 9\n",
+                10 + i % 100,
+                10 + i / 100
+            ));
+            if i > 0 {
+                text.push_str(&format!("parent = \"j{}\"\n", i - 1));
+            }
         }
-    }
+        text
+    };
+    let max = mocap2d::seed::MAX_JOINTS;
+    let text = chain(10_000);
+    let t = Instant::now();
+    let m = seed_err(parse_seeds(&text, Path::new("many.toml")));
+    assert_quick(t, "refusing 10 000 joints");
+    let line = 2 + 7 * max - 1; // joint `max` (0-based) starts after `frame` and `max` joints
+    assert_mentions(&m, &[&format!("line {line}:"), "10000 joints", "limit"]);
+
+    let text = chain(max);
     let t = Instant::now();
     let seeds = parse_seeds(&text, Path::new("many.toml")).unwrap();
-    assert_quick(t, "parsing 10 000 joints");
-    assert_eq!(seeds.joints.len(), 10_000);
-    assert_eq!(seeds.skeleton.depth(9_999), 9_999);
-    assert_eq!(seeds.skeleton.topo_order().len(), 10_000);
+    assert_quick(t, "parsing a chain of MAX_JOINTS joints");
+    assert_eq!(seeds.joints.len(), max);
+    assert_eq!(seeds.skeleton.depth(max - 1), max - 1);
+    assert_eq!(seeds.skeleton.topo_order().len(), max);
     seeds
         .check_against_clip(Path::new("many.toml"), 200, 200, Some(10))
         .unwrap();
-    // A cycle through all of them is found, not followed forever.
-    let cyclic = text.replacen("w = 9\nh = 9\n", "w = 9\nh = 9\nparent = \"j9999\"\n", 1);
+    let last = format!("parent = \"j{}\"\n", max - 1);
+    let cyclic = text.replacen("w = 9\nh = 9\n", &format!("w = 9\nh = 9\n{last}"), 1);
     let t = Instant::now();
     let m = seed_err(parse_seeds(&cyclic, Path::new("many.toml")));
-    assert_quick(t, "finding a 10 000-joint cycle");
+    assert_quick(t, "finding a cycle through every joint");
     assert_mentions(&m, &["cycle", "j0"]);
 }
 

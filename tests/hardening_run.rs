@@ -143,8 +143,9 @@ fn missing_or_edited_run_files_are_named() {
     );
 }
 
-/// `track` into the run folder of another clip replaces every file: `run.toml` then names the new
-/// clip and the tracks are the new clip's (the old retarget is refused as stale).
+/// `track --replace` into the run folder of another clip replaces every file: `run.toml` then
+/// names the new clip and the tracks are the new clip's (the old retarget is refused as stale).
+/// Without `--replace` it is refused: `tests/run_safety.rs`.
 #[test]
 fn track_into_the_folder_of_another_clip_replaces_it_whole() {
     let dir = tempfile::tempdir().unwrap();
@@ -178,6 +179,7 @@ fn track_into_the_folder_of_another_clip_replaces_it_whole() {
         s(&mseeds),
         "--out",
         s(&out),
+        "--replace",
     ]));
     let m = mocap2d::run::Manifest::read(&out.join("run.toml")).unwrap();
     assert_eq!(m.clip.path, s(&frames));
@@ -230,8 +232,12 @@ fn stale_temp_files_are_neither_an_obstacle_nor_mistaken_for_output() {
     assert!(std::fs::read_to_string(&json).unwrap().starts_with('{'));
 }
 
+/// The temp name of `p` a crash of an earlier build left (`NAME.tmp`; writes now use
+/// `NAME.<pid>.<n>.tmp`, which a write removes on failure and renames on success).
 fn crate_tmp(p: &Path) -> PathBuf {
-    mocap2d::atomic::temp_path(p)
+    let mut s = p.as_os_str().to_owned();
+    s.push(".tmp");
+    PathBuf::from(s)
 }
 
 #[test]

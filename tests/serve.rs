@@ -105,6 +105,9 @@ impl Served {
     /// As [`Served::raw`] with the given header lines (`\r\n`-separated).
     fn raw_with(&self, method: &str, target: &str, headers: &str, body: &[u8]) -> (u16, Vec<u8>) {
         let mut s = TcpStream::connect(self.addr).unwrap();
+        // A server that stops answering fails the test instead of hanging it.
+        s.set_read_timeout(Some(std::time::Duration::from_secs(20)))
+            .unwrap();
         let head = format!(
             "{method} {target} HTTP/1.0\r\n{headers}\r\nConnection: close\r\n\
              Content-Length: {}\r\n\r\n",
@@ -445,4 +448,186 @@ fn walk(p: &Path) -> Vec<PathBuf> {
         }
     }
     out
+}
+
+/// The rectangles of segment `id` as the page sends them, the head moved by `dx` px.
+fn save_body(srv: &Served, id: &str, dx: f64) -> String {
+    let (st, seg) = srv.json("GET", &format!("/api/segments/{id}"), b"");
+    assert_eq!(st, 200, "{seg}");
+    let edits: Vec<serde_json::Value> = seg["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| {
+            let x = j["x"].as_f64().unwrap() + if j["name"] == "head" { dx } else { 0.0 };
+            serde_json::json!({"name": j["name"], "x": x, "y": j["y"], "w": j["w"], "h": j["h"], "angle": j["angle"]})
+        })
+        .collect();
+    serde_json::json!({ "joints": edits }).to_string()
+}
+
+/// A save from the page while a command-line `resume` writes the run folder is refused with a
+/// clear answer (409, naming the resume) and changes nothing; saved again once the resume is
+/// done, the correction is kept, and a later resume tracks from it without rewriting it.
+#[test]
+fn a_save_while_resume_runs_is_refused_and_the_correction_then_survives() {
+    let (_dir, run) = tracked_walk(600, 50);
+    let srv = Served::start(&run);
+    let file = run.join("segments/002.toml");
+    let tool_written = std::fs::read(&file).unwrap();
+    let body = save_body(&srv, "002", 9.0);
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        .args(["resume", run.to_str().unwrap(), "--segment", "0", "-q"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let lock = run.join(mocap2d::run::lock::LOCK_FILE);
+    let t = std::time::Instant::now();
+    while !std::fs::read_to_string(&lock)
+        .unwrap_or_default()
+        .contains("`mocap2d resume`")
+    {
+        assert!(child.try_wait().unwrap().is_none(), "resume ended too soon");
+        assert!(t.elapsed().as_secs() < 60);
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let (st, r) = srv.json("POST", "/api/segments/002", body.as_bytes());
+    let still_running = child.try_wait().unwrap().is_none();
+    assert_eq!(st, 409, "{r}");
+    let msg = r["error"].as_str().unwrap();
+    let pid = format!("pid {}", child.id());
+    assert!(
+        msg.contains(&pid) && msg.contains("resume") && msg.contains("not saved"),
+        "{msg}"
+    );
+    assert!(
+        still_running,
+        "the resume ended before the save; lengthen the clip"
+    );
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        tool_written,
+        "refused, unchanged"
+    );
+    assert!(child.wait().unwrap().success());
+
+    // After the resume: saved, and kept by the next resume, which tracks from it.
+    let body = save_body(&srv, "002", 9.0);
+    let (st, r) = srv.json("POST", "/api/segments/002", body.as_bytes());
+    assert_eq!(
+        (st, &r["saved"]),
+        (200, &serde_json::Value::Bool(true)),
+        "{r}"
+    );
+    let corrected = std::fs::read(&file).unwrap();
+    assert_ne!(corrected, tool_written);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        .args(["resume", run.to_str().unwrap(), "-q"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        corrected,
+        "the correction is kept"
+    );
+}
+
+/// Sends `head` (the request head, `\r\n\r\n` included) and `body` on a new connection and
+/// returns the status of the answer.
+fn status_of(srv: &Served, head: &str, body: &[u8]) -> u16 {
+    let mut s = TcpStream::connect(srv.addr).unwrap();
+    s.set_read_timeout(Some(std::time::Duration::from_secs(30)))
+        .unwrap();
+    s.write_all(head.as_bytes()).unwrap();
+    let _ = s.write_all(body);
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out);
+    text.split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or_else(|| panic!("{text:?}"))
+}
+
+/// How long a `GET /api/run` takes, asserting it answers 200.
+fn time_to_answer(srv: &Served) -> std::time::Duration {
+    let t = std::time::Instant::now();
+    let (st, _) = srv.req("GET", "/api/run", b"");
+    assert_eq!(st, 200);
+    t.elapsed()
+}
+
+/// A `Content-Length` of 99999999999 (refused or not) is answered 413 without the server
+/// allocating it, and the server goes on answering.
+#[test]
+fn a_lying_content_length_is_refused_and_the_server_lives_on() {
+    let (_dir, run) = run_with_segments();
+    let srv = Served::start(&run);
+    let port = srv.addr.port();
+    for host in [format!("127.0.0.1:{port}"), "evil.example".into()] {
+        for method in ["POST", "GET"] {
+            let head = format!(
+                "{method} /api/segments/001 HTTP/1.1\r\nHost: {host}\r\n\
+                 Content-Type: application/json\r\nContent-Length: 99999999999\r\n\r\n"
+            );
+            let st = status_of(&srv, &head, b"{\"joints\":");
+            assert!(st == 413 || st == 403, "{method} from {host}: {st}");
+            assert!(time_to_answer(&srv) < std::time::Duration::from_secs(1));
+        }
+    }
+    let head = format!(
+        "POST /api/segments/001 HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\
+         Content-Type: application/json\r\nContent-Length: 18446744073709551616\r\n\r\n"
+    );
+    assert_eq!(status_of(&srv, &head, b""), 400);
+    assert!(time_to_answer(&srv) < std::time::Duration::from_secs(1));
+}
+
+/// A client that announces 100000 bytes and sends a few, one that sends half a head, and one
+/// that sends nothing hold up no one: the server answers others within 1 s meanwhile.
+#[test]
+fn a_stalled_request_does_not_block_other_clients() {
+    let (_dir, run) = run_with_segments();
+    let srv = Served::start(&run);
+    let port = srv.addr.port();
+    let mut stalled = Vec::new();
+    let mut body = TcpStream::connect(srv.addr).unwrap();
+    let head = format!(
+        "POST /api/segments/001 HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\
+         Content-Type: application/json\r\nContent-Length: 100000\r\n\r\n{{\"joints\": ["
+    );
+    body.write_all(head.as_bytes()).unwrap();
+    stalled.push(body);
+    let mut half = TcpStream::connect(srv.addr).unwrap();
+    half.write_all(b"GET /api/run HTTP/1.1\r\nHost: 127.0")
+        .unwrap();
+    stalled.push(half);
+    stalled.push(TcpStream::connect(srv.addr).unwrap());
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    for _ in 0..5 {
+        let took = time_to_answer(&srv);
+        assert!(took < std::time::Duration::from_secs(1), "{took:?}");
+    }
+    // The page is served too, and a save goes through, all while those three wait.
+    assert_eq!(srv.req("GET", "/", b"").0, 200);
+    let body = save_body(&srv, "001", 2.0);
+    let (st, r) = srv.json("POST", "/api/segments/001", body.as_bytes());
+    assert_eq!(st, 200, "{r}");
+    // The stalled body, cut short by its client, is refused (400), not taken as a save.
+    let before = std::fs::read(run.join("segments/001.toml")).unwrap();
+    let mut cut = stalled.remove(0);
+    cut.shutdown(std::net::Shutdown::Write).unwrap();
+    let mut out = Vec::new();
+    let _ = cut.read_to_end(&mut out);
+    assert!(
+        String::from_utf8_lossy(&out).starts_with("HTTP/1.1 400"),
+        "{out:?}"
+    );
+    assert_eq!(
+        std::fs::read(run.join("segments/001.toml")).unwrap(),
+        before
+    );
+    drop(stalled);
 }

@@ -39,6 +39,8 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
             msg: "not a folder; give a run folder written by `mocap2d track`".into(),
         });
     }
+    // One writer at a time; everything below reads the folder under the lock.
+    let _lock = crate::run::lock::RunLock::acquire(run_dir, "resume")?;
     let manifest_path = run_dir.join(RUN_TOML);
     let manifest = Manifest::read(&manifest_path)?;
     let clip = check_inputs(opts, &manifest, &manifest_path)?;
@@ -152,13 +154,13 @@ fn check_inputs(opts: &ResumeOptions, m: &Manifest, manifest_path: &Path) -> Res
             )));
         }
     }
-    let clip = opts
-        .clip
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(&m.clip.path));
+    let clip = match &opts.clip {
+        Some(c) => c.clone(),
+        None => recorded_clip(m, manifest_path),
+    };
     if !clip.exists() {
         return Err(err(format!(
-            "its clip {} is not there; give the clip with --clip",
+            "its clip {} is not there, nor beside the run folder; give the clip with --clip",
             clip.display()
         )));
     }
@@ -185,6 +187,31 @@ fn check_inputs(opts: &ResumeOptions, m: &Manifest, manifest_path: &Path) -> Res
         });
     }
     Ok(clip)
+}
+
+/// Where the run's clip is, as `review` looks for it: the path `run.toml` records (relative to
+/// the working directory), else that path or its file name beside the run folder (whose
+/// `run.toml` is at `manifest_path`); the first there with the recorded size, else the first
+/// there, else the recorded path.
+fn recorded_clip(m: &Manifest, manifest_path: &Path) -> PathBuf {
+    let recorded = PathBuf::from(&m.clip.path);
+    let beside = manifest_path
+        .parent()
+        .and_then(Path::parent)
+        .unwrap_or(Path::new("."));
+    let mut candidates = vec![recorded.clone(), beside.join(&recorded)];
+    if let Some(name) = recorded.file_name() {
+        candidates.push(beside.join(name));
+    }
+    let size_fits = |p: &&PathBuf| {
+        p.is_dir() || std::fs::metadata(p).is_ok_and(|f| f.is_file() && f.len() == m.clip.bytes)
+    };
+    candidates
+        .iter()
+        .find(size_fits)
+        .or_else(|| candidates.iter().find(|p| p.exists()))
+        .unwrap_or(&recorded)
+        .clone()
 }
 
 /// The segment to re-track from: `--segment K` (checked), else the first of where the run

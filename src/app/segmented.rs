@@ -758,7 +758,9 @@ impl Session {
                         self.manifest.write(&self.run_dir)?;
                     }
                     let path = segments::file_path(&self.run_dir, k1);
-                    crate::atomic::write(&path, text.as_bytes())?;
+                    // A file that became a correction since `correction` looked is kept.
+                    let written = &self.manifest.segment[k1 as usize].written;
+                    crate::run::folder::write_segment_unless_corrected(&path, &text, written)?;
                     let rec = &mut self.manifest.segment[k1 as usize];
                     rec.written = vec![h.clone()];
                     if last {

@@ -21,6 +21,22 @@ pub fn finished_track(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {
     same_inputs(run_dir, opts).filter(|m| m.complete)
 }
 
+/// The first segment file of the run in `run_dir` (manifest `m`) edited since it was tracked
+/// (its hash is not the one tracking last started from): an edit `resume` has not applied yet.
+pub fn unapplied_edit(run_dir: &Path, m: &Manifest) -> Option<u64> {
+    m.segment
+        .iter()
+        .enumerate()
+        .take(m.tracked_segments as usize + 1)
+        .find(|(k, rec)| {
+            crate::run::segments::hash_file(&crate::run::segments::file_path(run_dir, *k as u64))
+                .ok()
+                .flatten()
+                .is_some_and(|h| h != rec.tracked_from)
+        })
+        .map(|(k, _)| k as u64)
+}
+
 /// The unfinished run in `run_dir` (stopped by Ctrl-C, a kill or a crash) for the same inputs
 /// (see [`same_inputs`]): `resume` carries it on from its last checkpoint.
 pub fn unfinished_track(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {

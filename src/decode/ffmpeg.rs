@@ -97,6 +97,14 @@ impl FfmpegSource {
         if !path.exists() {
             return Err(clip_err("no such file or folder".into()));
         }
+        if path.to_str().is_none() {
+            // FFmpeg's bindings take the path as UTF-8 text.
+            return Err(clip_err(
+                "its path is not valid UTF-8, which FFmpeg cannot open; rename the file (or \
+                 the folder holding it) to a UTF-8 name"
+                    .into(),
+            ));
+        }
         let input = ff::format::input(path).map_err(|e| {
             let empty = std::fs::metadata(path).is_ok_and(|m| m.len() == 0);
             clip_err(if empty {

@@ -184,6 +184,26 @@ where
     }
 }
 
+/// For a file that states no frame count but a duration (MKV, WebM): where decoding stopped
+/// when it gave clearly fewer than `info.frame_count_hint` (duration × fps) frames, `decoded`,
+/// i.e. a file cut short. The duration is approximate, so a shortfall of up to 2 frames or 5 %
+/// passes. `None` when the file states its count (then [`salvage`] checks) or no duration.
+pub fn short_of_duration(info: &ClipInfo, decoded: u64) -> Option<DecodeStop> {
+    if info.stated_frames.is_some() || decoded == 0 {
+        return None;
+    }
+    let h = info.frame_count_hint?;
+    (decoded + (h / 20).max(2) < h).then(|| DecodeStop {
+        frame: decoded,
+        stated_frames: None,
+        reason: format!(
+            "the file ends early: its header gives a duration of about {h} frames at {:.3} \
+             frames/s; it was probably cut short",
+            info.fps
+        ),
+    })
+}
+
 /// A clip's frames, one at a time, in display order.
 pub trait FrameSource: Send {
     /// The clip's size, rate and path.

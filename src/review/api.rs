@@ -259,6 +259,18 @@ impl Api {
                 )
             }
         };
+        // One writer at a time: while `track` or `resume` writes the run folder, a save could
+        // be overwritten by it, so it is refused (the page keeps the edit to save again).
+        let _lock = match crate::run::lock::RunLock::acquire(&self.data.dir, "serve (a save)") {
+            Ok(l) => l,
+            Err(e @ Error::RunFolder { .. }) => {
+                return Reply::error(
+                    409,
+                    format!("{e}; your edit is not saved: save it again once that is done"),
+                )
+            }
+            Err(e) => return Reply::error(500, format!("{e}; your edit is not saved")),
+        };
         let (seeds, old_text) = match crate::seed::read_seeds(&path) {
             Ok(s) => s,
             Err(e) => return Reply::error(409, format!("{e}; fix the file by hand first")),

@@ -69,6 +69,17 @@ pub fn check_no_corrections(run_dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Writes a tool-made segment file `path` (the next segment's, at a checkpoint) unless the file
+/// there became a correction meanwhile: its hash is none of `written`, the hashes mocap2d
+/// recorded writing it. A file the user saved (by hand, or from a page before the run-folder
+/// lock existed) between the checkpoint's look and its write is then kept, never replaced.
+/// Returns whether `path` was written.
+pub fn write_segment_unless_corrected(path: &Path, text: &str, written: &[String]) -> Result<bool> {
+    crate::atomic::write_unless(path, text.as_bytes(), || {
+        Ok(hash_file(path)?.is_some_and(|h| !written.contains(&h)))
+    })
+}
+
 /// Removes every segment file (`segments/NNN.toml`, `NNN.csv`): a new run starts afresh.
 /// Call [`check_no_corrections`] first.
 pub fn clear_segments(run_dir: &Path) -> Result<()> {
@@ -126,6 +137,44 @@ pub fn archive_previous(run_dir: &Path) -> Result<Option<PathBuf>> {
     Ok(Some(dst))
 }
 
+/// Copies `run.toml` and `seeds.toml` (when there) beside `archived`, the `history/NNN-tracks.csv`
+/// [`archive_previous`] returned, as `NNN-run.toml` and `NNN-seeds.toml`: the archived tracks
+/// then still trace to their clip and seeds when a run of another clip replaces them. With no
+/// tracks archived (an unfinished run), they go to the next free NNN.
+pub fn archive_inputs(run_dir: &Path, archived: Option<&Path>) -> Result<()> {
+    let hist = run_dir.join(HISTORY_DIR);
+    std::fs::create_dir_all(&hist).map_err(|e| Error::io(&hist, e))?;
+    let prefix = match archived
+        .and_then(|p| p.file_name())
+        .and_then(|n| n.to_str())
+        .and_then(|n| n.strip_suffix("-tracks.csv"))
+    {
+        Some(p) => p.to_owned(),
+        None => {
+            let used = |n: u32| {
+                std::fs::read_dir(&hist)
+                    .into_iter()
+                    .flatten()
+                    .flatten()
+                    .any(|e| {
+                        e.file_name()
+                            .to_string_lossy()
+                            .starts_with(&format!("{n:03}-"))
+                    })
+            };
+            format!("{:03}", (1..).find(|&n| !used(n)).unwrap_or(1))
+        }
+    };
+    for name in [RUN_TOML, "seeds.toml"] {
+        let src = run_dir.join(name);
+        if src.is_file() {
+            let bytes = std::fs::read(&src).map_err(|e| Error::io(&src, e))?;
+            crate::atomic::write(&hist.join(format!("{prefix}-{name}")), &bytes)?;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -152,6 +201,30 @@ mod tests {
             "ra"
         );
         assert!(!r.join("tracks.csv").exists());
+    }
+
+    #[test]
+    fn a_segment_file_edited_before_the_checkpoint_writes_it_is_kept() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("002.toml");
+        let tool = crate::run::segments::hash_bytes(b"frame = 3 # tool");
+        // Missing, or as mocap2d wrote it: written.
+        assert!(write_segment_unless_corrected(
+            &p,
+            "frame = 3 # tool",
+            std::slice::from_ref(&tool)
+        )
+        .unwrap());
+        assert!(
+            write_segment_unless_corrected(&p, "frame = 3 # new", std::slice::from_ref(&tool))
+                .unwrap()
+        );
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "frame = 3 # new");
+        // Edited by the user since: kept.
+        std::fs::write(&p, "frame = 3 # user").unwrap();
+        let new = crate::run::segments::hash_bytes(b"frame = 3 # new");
+        assert!(!write_segment_unless_corrected(&p, "frame = 3 # again", &[tool, new]).unwrap());
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "frame = 3 # user");
     }
 
     #[test]

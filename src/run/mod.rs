@@ -12,6 +12,7 @@
 //!                rows of tracks.csv, the checkpoint `resume` carries on from ([`segments`])
 //!   keys.toml    the user's keys on any frame, any subset of joints ([`keys`])
 //!   history/     NNN-tracks.csv, NNN-report.md: results a rerun replaced ([`folder`])
+//!   .lock        only while a command writes the folder: one writer at a time ([`lock`])
 //! ```
 //! Every file is written atomically (see [`crate::atomic`]).
 
@@ -19,6 +20,7 @@ pub mod evidence;
 pub mod folder;
 pub mod keyed;
 pub mod keys;
+pub mod lock;
 pub mod manifest;
 pub mod report;
 pub mod segments;

@@ -148,7 +148,7 @@ impl Start {
         };
         if seeds.frame != first {
             return Err(err(
-                Some(1),
+                crate::seed::top_key_line(&text, "frame"),
                 None,
                 format!(
                     "frame = {}, but this segment starts on frame {first}; a segment file's \

@@ -27,7 +27,7 @@ pub struct TrackRow {
     pub status: String,
 }
 
-/// Streams rows into `<path>.tmp`; [`TracksWriter::finish`] renames it into place, so a crash
+/// Streams rows into a temp file beside `path`; [`TracksWriter::finish`] renames it into place, so a crash
 /// never leaves a partial `tracks.csv`.
 pub struct TracksWriter {
     path: PathBuf,

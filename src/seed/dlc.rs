@@ -45,6 +45,16 @@ pub fn seeds_from_dlc(path: &Path, options: &DlcSeedOptions) -> Result<(Seeds, S
             options.size
         )));
     }
+    if table.joints.len() > crate::seed::MAX_JOINTS {
+        return Err(err(
+            None,
+            None,
+            format!(
+                "its bodyparts row: {}",
+                crate::seed::too_many_joints(table.joints.len())
+            ),
+        ));
+    }
     let frames: Vec<String> = table
         .rows
         .iter()
