@@ -768,11 +768,11 @@ fn a_missing_or_changed_state_file_is_named_and_rebuilt_from_an_earlier_segment(
 /// is refused with exit 2 naming the file, line and joint.
 #[test]
 fn a_key_on_any_frame_pulls_the_frames_around_it() {
-    let s = Synth::new(Scenario::Fast, 320, 180, Some(90));
-    let run = s.path("run");
-    s.track("run", 30);
+    let clip = Synth::new(Scenario::Fast, 320, 180, Some(90));
+    let run = clip.path("run");
+    clip.track("run", 30);
     let before = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
-    let names: Vec<String> = read_seeds(&s.path("joints.toml"))
+    let names: Vec<String> = read_seeds(&clip.path("joints.toml"))
         .unwrap()
         .0
         .joints
@@ -786,7 +786,7 @@ fn a_key_on_any_frame_pulls_the_frames_around_it() {
         rows.iter()
             .filter(|r| r.frame == f)
             .enumerate()
-            .map(|(j, r)| (r.x - s.gt[f as usize][j].0).hypot(r.y - s.gt[f as usize][j].1))
+            .map(|(j, r)| (r.x - clip.gt[f as usize][j].0).hypot(r.y - clip.gt[f as usize][j].1))
             .collect()
     };
     let e52 = err_at(52);
@@ -797,7 +797,7 @@ fn a_key_on_any_frame_pulls_the_frames_around_it() {
     for f in [44u64, 52] {
         text.push_str(&format!("[[key]]\nframe = {f}\n"));
         for &j in keyed {
-            let (x, y) = s.gt[f as usize][j];
+            let (x, y) = clip.gt[f as usize][j];
             text.push_str(&format!("{} = [{x}, {y}]\n", names[j]));
         }
     }
@@ -807,7 +807,8 @@ fn a_key_on_any_frame_pulls_the_frames_around_it() {
     let rows = read_tracks(&run.join("tracks.csv")).unwrap();
     for &j in keyed {
         let r = rows.iter().find(|r| r.frame == 52 && r.joint == names[j]).unwrap();
-        assert_eq!((r.x, r.y), s.gt[52][j], "{}", names[j]);
+        let (x, y) = clip.gt[52][j];
+        assert!((r.x - x).abs() < 1e-3 && (r.y - y).abs() < 1e-3, "{}: {r:?}", names[j]);
         assert_eq!(r.status, "seed");
     }
     let far_after: f32 = (45..52).map(|f| keyed.iter().map(|&j| err_at(f)[j]).sum::<f32>()).sum();

@@ -647,16 +647,37 @@ impl Session {
                             solved.lk_miss[j] >= keyed::LK_MARGIN * miss_t
                         })
                         .collect(),
-                    _ => vec![false; self.names.len()],
+                    // Between keys of keys.toml the tracker ran forward only: it stands for a
+                    // joint, bent onto the far key, unless Lucas–Kanade forward lands there at
+                    // under half its miss.
+                    _ => (0..self.names.len())
+                        .map(|j| match kb[j] {
+                            Some(xb) => {
+                                let miss_t = (track_pos[*ib][j] - xb).norm();
+                                solved.lk_fwd_miss[j] >= keyed::LK_MARGIN * miss_t
+                            }
+                            None => true,
+                        })
+                        .collect(),
                 };
+                let blend_kept = *ib == top && end.is_some() && back_here.is_some();
+                let len = (ib - ia) as f32;
                 for (t, row) in solved.rows.iter().enumerate().skip(1) {
                     for (j, s) in row.iter().enumerate() {
-                        if keep_blend[j] {
-                            doubt[ia + t][j] = f32::NAN;
-                            continue;
+                        match (keep_blend[j], blend_kept, kb[j]) {
+                            (true, true, _) => doubt[ia + t][j] = f32::NAN,
+                            (true, false, Some(xb)) => {
+                                let lam = t as f32 / len;
+                                let miss = xb - track_pos[*ib][j];
+                                track_pos[ia + t][j] += miss * lam;
+                                doubt[ia + t][j] = miss.norm() * 2.0 * lam.min(1.0 - lam);
+                            }
+                            (true, false, None) => doubt[ia + t][j] = f32::NAN,
+                            (false, ..) => {
+                                track_pos[ia + t][j] = s.pos;
+                                doubt[ia + t][j] = s.sigma_px;
+                            }
                         }
-                        track_pos[ia + t][j] = s.pos;
-                        doubt[ia + t][j] = s.sigma_px;
                     }
                 }
             }

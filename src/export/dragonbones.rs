@@ -172,16 +172,7 @@ pub fn to_dragonbones(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
         .flat_map(|p| [p[0] - origin[0], p[1] - origin[1]])
         .map(|v| json!(round(v, 3)))
         .collect();
-    let uvs: Vec<Value> = mesh
-        .uvs
-        .iter()
-        .flat_map(|uv| [json!(round(uv[0], 6)), json!(round(uv[1], 6))])
-        .collect();
-    let triangles: Vec<Value> = mesh
-        .triangles
-        .iter()
-        .flat_map(|t| t.map(|v| json!(v)))
-        .collect();
+    let (uvs, triangles) = super::mesh_uvs_triangles(mesh);
     let weights: Vec<Value> = vertex_joint
         .iter()
         .flat_map(|&j| [json!(1), json!(index_of_joint[j]), json!(1)])

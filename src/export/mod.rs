@@ -248,6 +248,23 @@ pub(crate) fn wrap(a: f64) -> f64 {
     }
 }
 
+/// A mesh's texture coordinates and triangles as the flat JSON arrays Spine and DragonBones
+/// both read.
+pub(crate) fn mesh_uvs_triangles(mesh: &SkinMesh) -> (Vec<serde_json::Value>, Vec<serde_json::Value>) {
+    use serde_json::json;
+    let uvs = mesh
+        .uvs
+        .iter()
+        .flat_map(|uv| [json!(round(uv[0], 6)), json!(round(uv[1], 6))])
+        .collect();
+    let triangles = mesh
+        .triangles
+        .iter()
+        .flat_map(|t| t.map(|v| json!(v)))
+        .collect();
+    (uvs, triangles)
+}
+
 /// `x` rounded to `decimals` decimals, as a JSON number (keeps files small and deterministic).
 pub(crate) fn round(x: f64, decimals: i32) -> f64 {
     let k = 10f64.powi(decimals);

@@ -244,16 +244,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
             json!(1),
         ]);
     }
-    let uvs: Vec<Value> = mesh
-        .uvs
-        .iter()
-        .flat_map(|uv| [json!(round(uv[0], 6)), json!(round(uv[1], 6))])
-        .collect();
-    let triangles: Vec<Value> = mesh
-        .triangles
-        .iter()
-        .flat_map(|t| t.map(|v| json!(v)))
-        .collect();
+    let (uvs, triangles) = super::mesh_uvs_triangles(mesh);
     let attachment = json!({
         "type": "mesh",
         "uvs": uvs,

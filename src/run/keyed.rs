@@ -62,6 +62,8 @@ pub struct Between {
     /// Per joint, how far Lucas–Kanade's two ways land from the keys they run toward (px,
     /// forward's miss plus backward's; infinite without a key at both ends).
     pub lk_miss: Vec<f32>,
+    /// Per joint, how far Lucas–Kanade forward lands from the far key (px; infinite without).
+    pub lk_fwd_miss: Vec<f32>,
 }
 
 /// Where the appearance tracker also ran both ways between two keys, its blend is kept for a
@@ -115,7 +117,7 @@ pub fn solve(
     let fwd: Vec<&GreyPyramid> = frames.iter().collect();
     let bwd: Vec<&GreyPyramid> = frames.iter().rev().collect();
     let gvar = (prm.guide_sigma_px as f64).powi(2);
-    let per_joint: Vec<(Vec<Solved>, f32)> = (0..start.len())
+    let per_joint: Vec<(Vec<Solved>, f32, f32)> = (0..start.len())
         .into_par_iter()
         .map(|j| {
             let flow = FlowParams {
@@ -155,6 +157,7 @@ pub fn solve(
                 (Some(kb), Some((pb, _))) => (pf[n - 1] - kb).norm() + (pb[0] - start[j]).norm(),
                 _ => f32::INFINITY,
             };
+            let fwd_miss = key_b.map_or(f32::INFINITY, |kb| (pf[n - 1] - kb).norm());
             let rows: Vec<Solved> = (0..n)
                 .map(|t| {
                     // Time weights: each side counts for less the further from its key.
@@ -170,7 +173,7 @@ pub fn solve(
                     fuse(&sides, back.is_some(), lam)
                 })
                 .collect();
-            (rows, miss)
+            (rows, miss, fwd_miss)
         })
         .collect();
     Between {
@@ -178,6 +181,7 @@ pub fn solve(
             .map(|t| per_joint.iter().map(|p| p.0[t]).collect())
             .collect(),
         lk_miss: per_joint.iter().map(|p| p.1).collect(),
+        lk_fwd_miss: per_joint.iter().map(|p| p.2).collect(),
     }
 }
 
