@@ -802,26 +802,56 @@ fn a_key_on_any_frame_pulls_the_frames_around_it() {
         }
     }
     std::fs::write(run.join("keys.toml"), &text).unwrap();
-    let far_before: f32 = (45..52).map(|f| keyed.iter().map(|&j| err_at(f)[j]).sum::<f32>()).sum();
+    let far_before: f32 = (45..52)
+        .map(|f| keyed.iter().map(|&j| err_at(f)[j]).sum::<f32>())
+        .sum();
     resume_run(&run, Some(1)).unwrap();
     let rows = read_tracks(&run.join("tracks.csv")).unwrap();
     for &j in keyed {
-        let r = rows.iter().find(|r| r.frame == 52 && r.joint == names[j]).unwrap();
+        let r = rows
+            .iter()
+            .find(|r| r.frame == 52 && r.joint == names[j])
+            .unwrap();
         let (x, y) = clip.gt[52][j];
-        assert!((r.x - x).abs() < 1e-3 && (r.y - y).abs() < 1e-3, "{}: {r:?}", names[j]);
+        assert!(
+            (r.x - x).abs() < 1e-3 && (r.y - y).abs() < 1e-3,
+            "{}: {r:?}",
+            names[j]
+        );
         assert_eq!(r.status, "seed");
     }
-    let far_after: f32 = (45..52).map(|f| keyed.iter().map(|&j| err_at(f)[j]).sum::<f32>()).sum();
+    let far_after: f32 = (45..52)
+        .map(|f| keyed.iter().map(|&j| err_at(f)[j]).sum::<f32>())
+        .sum();
     println!("keyed joints' error summed over frames 45-51: {far_before:.1} -> {far_after:.1} px");
     assert!(far_after < far_before, "{far_before} -> {far_after}");
-    assert!(far_after <= 0.5 * far_before + 5.0, "{far_before} -> {far_after}");
-    let keep = |t: &str| -> Vec<String> { t.lines().take(1 + 30 * names.len()).map(str::to_owned).collect() };
+    assert!(
+        far_after <= 0.5 * far_before + 5.0,
+        "{far_before} -> {far_after}"
+    );
+    let keep = |t: &str| -> Vec<String> {
+        t.lines()
+            .take(1 + 30 * names.len())
+            .map(str::to_owned)
+            .collect()
+    };
     let after = std::fs::read_to_string(run.join("tracks.csv")).unwrap();
-    assert_eq!(keep(&before), keep(&after), "frames before segment 1 changed");
+    assert_eq!(
+        keep(&before),
+        keep(&after),
+        "frames before segment 1 changed"
+    );
     resume_run(&run, Some(1)).unwrap();
-    assert_eq!(after, std::fs::read_to_string(run.join("tracks.csv")).unwrap());
+    assert_eq!(
+        after,
+        std::fs::read_to_string(run.join("tracks.csv")).unwrap()
+    );
 
-    std::fs::write(run.join("keys.toml"), "[[key]]\nframe = 40\nelbow_x = [10, 10]\n").unwrap();
+    std::fs::write(
+        run.join("keys.toml"),
+        "[[key]]\nframe = 40\nelbow_x = [10, 10]\n",
+    )
+    .unwrap();
     let o = run_bin(&["resume", s(&run), "--segment", "1", "-q"]);
     assert_exit(&o, 2, &["keys.toml", "line 3", "elbow_x", "no such joint"]);
 }

@@ -43,17 +43,17 @@
 
 use crate::background::Background;
 use crate::error::{Error, Result};
+use crate::geom::Point;
 use crate::progress::Progress;
+use crate::run::keyed;
+use crate::run::keys::{self, Key};
 use crate::run::report::{Report, Tally};
 use crate::run::segments::{self, file_text, Plan, Start};
 use crate::run::{Manifest, SegmentRecord};
 use crate::seed::Seeds;
-use crate::geom::Point;
-use crate::run::keyed;
-use crate::run::keys::{self, Key};
-use crate::track::Status;
 use crate::track::flow::GreyPyramid;
 use crate::track::scale::WorkScale;
+use crate::track::Status;
 use crate::track::{gapfill::GapFiller, JointEstimate, TrackParams, Tracker};
 use image::RgbImage;
 use std::path::PathBuf;
@@ -615,7 +615,12 @@ impl Session {
                 .map(|f| GreyPyramid::new(f, KEYED_LEVELS))
                 .collect();
             let prm = keyed::KeyedParams::default();
-            let boxes: Vec<u32> = start.seeds.joints.iter().map(|j| j.bbox.w.min(j.bbox.h)).collect();
+            let boxes: Vec<u32> = start
+                .seeds
+                .joints
+                .iter()
+                .map(|j| j.bbox.w.min(j.bbox.h))
+                .collect();
             let mut doubt: Vec<Vec<f32>> = vec![vec![0.0; self.names.len()]; top + 1];
             for pair in anchors.windows(2) {
                 let ((ia, ka), (ib, kb)) = (&pair[0], &pair[1]);

@@ -250,7 +250,9 @@ pub(crate) fn wrap(a: f64) -> f64 {
 
 /// A mesh's texture coordinates and triangles as the flat JSON arrays Spine and DragonBones
 /// both read.
-pub(crate) fn mesh_uvs_triangles(mesh: &SkinMesh) -> (Vec<serde_json::Value>, Vec<serde_json::Value>) {
+pub(crate) fn mesh_uvs_triangles(
+    mesh: &SkinMesh,
+) -> (Vec<serde_json::Value>, Vec<serde_json::Value>) {
     use serde_json::json;
     let uvs = mesh
         .uvs

@@ -79,7 +79,13 @@ const GUESSED_STEP_VAR: f64 = 64.0;
 
 /// One Lucas–Kanade pass of one joint over `frames` (in the order given) from `p0`: the
 /// position on every frame and the variance accumulated since `p0` (px², 0 on the first).
-fn pass(frames: &[&GreyPyramid], p0: Point, prm: &FlowParams, max_fb: f32, floor: f32) -> (Vec<Point>, Vec<f64>) {
+fn pass(
+    frames: &[&GreyPyramid],
+    p0: Point,
+    prm: &FlowParams,
+    max_fb: f32,
+    floor: f32,
+) -> (Vec<Point>, Vec<f64>) {
     let mut pos = Vec::with_capacity(frames.len());
     let mut var = Vec::with_capacity(frames.len());
     pos.push(p0);
@@ -148,7 +154,11 @@ pub fn solve(
                 let total = vg[n - 1];
                 let miss = kb - pg[n - 1];
                 for t in 0..n {
-                    let share = if total > 0.0 { vg[t] / total } else { t as f64 / (n - 1).max(1) as f64 };
+                    let share = if total > 0.0 {
+                        vg[t] / total
+                    } else {
+                        t as f64 / (n - 1).max(1) as f64
+                    };
                     pg[t] += miss * share as f32;
                     vg[t] = vg[t].min(total - vg[t]);
                 }
@@ -161,7 +171,11 @@ pub fn solve(
             let rows: Vec<Solved> = (0..n)
                 .map(|t| {
                     // Time weights: each side counts for less the further from its key.
-                    let lam = if n > 1 { t as f64 / (n - 1) as f64 } else { 0.0 };
+                    let lam = if n > 1 {
+                        t as f64 / (n - 1) as f64
+                    } else {
+                        0.0
+                    };
                     let mut sides: Vec<(Point, f64, f64)> = Vec::with_capacity(3);
                     sides.push((pf[t], vf[t], 1.0 - lam));
                     if !guide.is_empty() {
@@ -260,11 +274,24 @@ mod tests {
         // The end key 1 px off the true motion: the path must still end on it, and lean
         // toward it the nearer it is.
         let end = [Some(Point::new(71.0, 60.0))];
-        let out = solve(&frames, &start, Some(&end), &[], &[], &[25], &KeyedParams::default()).rows;
+        let out = solve(
+            &frames,
+            &start,
+            Some(&end),
+            &[],
+            &[],
+            &[25],
+            &KeyedParams::default(),
+        )
+        .rows;
         assert_eq!(out[5][0].pos, Point::new(71.0, 60.0));
         for (t, row) in out.iter().enumerate() {
             let want = 60.0 + 2.0 * t as f32 + 0.2 * t as f32;
-            assert!((row[0].pos.x - want).abs() < 0.3, "frame {t}: {:?}", row[0].pos);
+            assert!(
+                (row[0].pos.x - want).abs() < 0.3,
+                "frame {t}: {:?}",
+                row[0].pos
+            );
             assert!(row[0].sigma_px < 3.0, "frame {t}: {:?}", row[0]);
         }
     }

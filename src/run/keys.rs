@@ -108,9 +108,13 @@ pub fn parse(
         .ok_or_else(|| err(None, None, "`key` must be [[key]] entries".into()))?;
     let mut keys: BTreeMap<u64, (usize, Key)> = BTreeMap::new();
     for (i, entry) in entries.iter().enumerate() {
-        let entry = entry
-            .as_table()
-            .ok_or_else(|| err(line_of(i, "frame"), None, "a [[key]] must be a table".into()))?;
+        let entry = entry.as_table().ok_or_else(|| {
+            err(
+                line_of(i, "frame"),
+                None,
+                "a [[key]] must be a table".into(),
+            )
+        })?;
         let frame = match entry.get("frame").and_then(|v| v.as_integer()) {
             Some(f) if f >= 0 => f as u64,
             _ => {
@@ -125,7 +129,10 @@ pub fn parse(
             return Err(err(
                 line_of(i, "frame"),
                 None,
-                format!("frame = {frame}, but the clip has {n} frames (0 to {})", n - 1),
+                format!(
+                    "frame = {frame}, but the clip has {n} frames (0 to {})",
+                    n - 1
+                ),
             ));
         }
         let mut joints = vec![None; names.len()];
@@ -135,12 +142,17 @@ pub fn parse(
                 return Err(err(
                     line,
                     Some(name),
-                    format!("no such joint in this run; its joints are {}", names.join(", ")),
+                    format!(
+                        "no such joint in this run; its joints are {}",
+                        names.join(", ")
+                    ),
                 ));
             };
-            let xy: Option<Vec<f64>> = value
-                .as_array()
-                .map(|a| a.iter().filter_map(|v| v.as_float().or(v.as_integer().map(|i| i as f64))).collect());
+            let xy: Option<Vec<f64>> = value.as_array().map(|a| {
+                a.iter()
+                    .filter_map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+                    .collect()
+            });
             let p = match xy.as_deref() {
                 Some(&[x, y]) if x.is_finite() && y.is_finite() => Point::new(x as f32, y as f32),
                 _ => {
@@ -188,7 +200,10 @@ mod tests {
     use super::*;
 
     fn names() -> Vec<String> {
-        ["hip", "knee", "ankle"].iter().map(|s| s.to_string()).collect()
+        ["hip", "knee", "ankle"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
     }
 
     fn parse_str(text: &str) -> Result<Vec<Key>> {
@@ -203,25 +218,41 @@ mod tests {
         .unwrap();
         assert_eq!(keys.len(), 2);
         assert_eq!(keys[0].frame, 4);
-        assert_eq!(keys[0].joints, vec![Some(Point::new(1.0, 2.0)), None, Some(Point::new(3.0, 4.0))]);
-        assert_eq!(keys[1].joints, vec![None, Some(Point::new(10.0, 20.5)), None]);
+        assert_eq!(
+            keys[0].joints,
+            vec![Some(Point::new(1.0, 2.0)), None, Some(Point::new(3.0, 4.0))]
+        );
+        assert_eq!(
+            keys[1].joints,
+            vec![None, Some(Point::new(10.0, 20.5)), None]
+        );
     }
 
     #[test]
     fn errors_name_the_line_and_joint() {
-        let e = parse_str("[[key]]\nframe = 3\nhip = [1, 2]\n\n[[key]]\nframe = 5\nelbow = [1, 2]\n")
+        let e =
+            parse_str("[[key]]\nframe = 3\nhip = [1, 2]\n\n[[key]]\nframe = 5\nelbow = [1, 2]\n")
+                .unwrap_err()
+                .to_string();
+        assert!(
+            e.contains("line 7") && e.contains("elbow") && e.contains("hip, knee, ankle"),
+            "{e}"
+        );
+        let e = parse_str("[[key]]\nframe = 3\nknee = [1, 200]\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("line 7") && e.contains("elbow") && e.contains("hip, knee, ankle"), "{e}");
-        let e = parse_str("[[key]]\nframe = 3\nknee = [1, 200]\n").unwrap_err().to_string();
         assert!(e.contains("line 3") && e.contains("outside"), "{e}");
-        let e = parse_str("[[key]]\nframe = 60\nknee = [1, 2]\n").unwrap_err().to_string();
+        let e = parse_str("[[key]]\nframe = 60\nknee = [1, 2]\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 2") && e.contains("50 frames"), "{e}");
         let e = parse_str("[[key]]\nframe = 6\nknee = [1, 2]\n[[key]]\nframe = 6\nhip = [1, 2]\n")
             .unwrap_err()
             .to_string();
         assert!(e.contains("line 5") && e.contains("second key"), "{e}");
-        let e = parse_str("[[key]]\nframe = 6\nknee = 3\n").unwrap_err().to_string();
+        let e = parse_str("[[key]]\nframe = 6\nknee = 3\n")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("line 3") && e.contains("[x, y]"), "{e}");
     }
 }

@@ -92,8 +92,6 @@ impl GreyPyramid {
     }
 }
 
-
-
 /// Lucas–Kanade settings. The defaults follow OpenCV's usual choice for body points: a 31 px
 /// window, five levels, up to 30 steps a level, stop below 0.01 px.
 #[derive(Debug, Clone, Copy)]
@@ -224,7 +222,8 @@ mod tests {
     fn frame(sx: f32, sy: f32) -> RgbImage {
         RgbImage::from_fn(160, 120, |x, y| {
             let (u, v) = (x as f32 - sx, y as f32 - sy);
-            let g = 128.0 + 60.0 * (u * 0.21).sin() * (v * 0.17).cos() + 40.0 * ((u + v) * 0.09).sin();
+            let g =
+                128.0 + 60.0 * (u * 0.21).sin() * (v * 0.17).cos() + 40.0 * ((u + v) * 0.09).sin();
             image::Rgb([g as u8, g as u8, g as u8])
         })
     }
@@ -235,7 +234,10 @@ mod tests {
         let b = GreyPyramid::new(&frame(7.3, -4.6), 4);
         let prm = FlowParams::default();
         let (q, fb) = track_checked(&a, &b, Point::new(80.0, 60.0), &prm).expect("tracked");
-        assert!((q.x - 87.3).abs() < 0.1 && (q.y - 55.4).abs() < 0.1, "{q:?}");
+        assert!(
+            (q.x - 87.3).abs() < 0.1 && (q.y - 55.4).abs() < 0.1,
+            "{q:?}"
+        );
         assert!(fb < 0.1, "forward–backward error {fb}");
     }
 

@@ -22,9 +22,9 @@
 //! Conventions (px, radians clockwise on screen, frames) are [`crate::geom`]'s.
 
 mod bodies;
+pub mod flow;
 pub mod gapfill;
 mod hidden;
-pub mod flow;
 pub mod kalman;
 mod locate;
 mod model;
