@@ -193,17 +193,7 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
                         vec![p[0] - p0[0], p[1] - p0[1]]
                     })
                     .collect();
-                let keys: Vec<Value> = keys::reduce(&values, tol, None)
-                    .into_iter()
-                    .map(|t| {
-                        json!({
-                            "time": time(t),
-                            "x": round(values[t][0], 4),
-                            "y": round(values[t][1], 4),
-                        })
-                    })
-                    .collect();
-                tl.insert("translate".into(), Value::Array(keys));
+                tl.insert("translate".into(), translate_keys(&values, tol, &time));
             }
             Some(_) => {
                 // Cannot fail: this joint has a parent (this arm), so a bone ends at it.
@@ -309,6 +299,23 @@ pub fn atlas(mesh: &SkinMesh) -> String {
     format!(
         "{}\nsize:{w},{h}\nfilter:Linear,Linear\n{}\nbounds:0,0,{w},{h}\n",
         mesh.image, mesh.name
+    )
+}
+
+/// A `translate` timeline: `values[t]` = (x, y) on frame `t`, keys reduced within `tol`, each
+/// at `time(t)` seconds.
+pub(crate) fn translate_keys(values: &[Vec<f64>], tol: f64, time: &dyn Fn(usize) -> f64) -> Value {
+    Value::Array(
+        keys::reduce(values, tol, None)
+            .into_iter()
+            .map(|t| {
+                json!({
+                    "time": time(t),
+                    "x": round(values[t][0], 4),
+                    "y": round(values[t][1], 4),
+                })
+            })
+            .collect(),
     )
 }
 

@@ -219,17 +219,10 @@ pub fn add_animation(
                         vec![a.cos() * dx - a.sin() * dy, a.sin() * dx + a.cos() * dy]
                     })
                     .collect();
-                let k: Vec<Value> = keys::reduce(&values, tol, None)
-                    .into_iter()
-                    .map(|t| {
-                        json!({
-                            "time": time(t),
-                            "x": round(values[t][0], 4),
-                            "y": round(values[t][1], 4),
-                        })
-                    })
-                    .collect();
-                tl.insert("translate".into(), Value::Array(k));
+                tl.insert(
+                    "translate".into(),
+                    spine::translate_keys(&values, tol, &time),
+                );
                 lines.push(format!(
                     "{} <- {} (translate, x{:.3})",
                     b.name, sk.names[j], scale

@@ -6,10 +6,15 @@
 //! ([`crate::track::flow`]), and by the appearance tracker (the guide, which starts on `a`).
 //! Each way's position on frame `t` carries the variance accumulated since its key: a
 //! Lucas–Kanade step adds `(e + floor)²`, `e` its forward–backward error, a step it could not
-//! follow (too flat, off the frame, `e` over the limit) adds 100 px² and holds the point; the
-//! guide adds `σ²` a step. The positions are averaged with weights `(1 − λ) / V` for the ways
-//! from `a` and `λ / V` for the way from `b`, `λ = (t − a) / (b − a)`: a way counts for less
-//! the further it is from its key and the more doubtful its steps were. On a key the key wins.
+//! follow (too flat, off the frame, `e` over the limit) adds 100 px² and holds the point; a
+//! guide step adds `σ²` where the tracker called the joint `ok` on both frames, else (8 px)².
+//! The guide is bent onto the key on `b` (its miss shared out as its variance grew) and counts
+//! from both ends. The positions are averaged with weights `(1 − λ) / V` for Lucas–Kanade from
+//! `a`, `λ / V` for Lucas–Kanade from `b` and `1 / V` for the bent guide, `λ = (t − a) /
+//! (b − a)`: a way counts for less the further it is from its key and the more doubtful its
+//! steps were. On a key the key wins. [`Between::lk_miss`] says how far Lucas–Kanade's ways
+//! land from the keys, for the caller to judge them against the tracker's own passes
+//! ([`LK_MARGIN`]).
 //!
 //! The doubt of the result is its standard deviation, raised to the two passes' disagreement
 //! times `2 min(λ, 1 − λ)` between two keys: where forward and backward end up apart, one of
