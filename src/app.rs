@@ -5,11 +5,11 @@ use crate::background::{Background, Limb};
 use crate::decode::{self, FrameSource};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
+use crate::run::session::{Finished, Session};
 use crate::run::{folder, hash_clip, segments, ClipId, Manifest, SegmentRecord};
 use crate::seed::{read_seeds, Seeds};
 use crate::track::{gapfill::GapFiller, JointEstimate, Status, TrackParams, Tracker};
 use image::RgbImage;
-use segmented::{Finished, Session};
 use std::path::{Path, PathBuf};
 
 /// Frames sampled across the clip for the temporal-median clean plate.
@@ -619,18 +619,16 @@ pub fn eval(run_dir: &Path, gt_path: &Path, per_joint: bool) -> Result<Vec<Strin
 }
 
 mod animate;
-mod blend;
 mod export;
 mod guide;
 mod resume;
 mod review;
-mod segmented;
 mod serve;
+pub use crate::run::blend::blend;
 pub use animate::{
     check_character, render, retarget, run_frame, RenderOptions, RenderSummary, Renderer,
     RetargetSummary, RETARGET_DIR,
 };
-pub use blend::blend;
 pub use export::{export, ExportOptions, ExportSummary, UserSkeleton};
 pub use guide::{guide, read_frame, GuideOptions, GuideSummary};
 pub use resume::{resume, ResumeOptions};

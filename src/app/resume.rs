@@ -2,7 +2,6 @@
 //! K after the user corrected segment files. Segments before K keep their rows byte for byte;
 //! the previous `tracks.csv` goes to `history/`.
 
-use super::segmented::Session;
 use super::{median_background, TrackSummary};
 use crate::background::Background;
 use crate::decode;
@@ -10,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::run::manifest::RUN_TOML;
 use crate::run::segments::{self, hash_file};
+use crate::run::session::Session;
 use crate::run::{folder, hash_clip, Manifest};
 use crate::seed::{read_seeds, Seeds};
 use crate::track::TrackParams;

@@ -14,8 +14,10 @@
 //!   history/     NNN-tracks.csv, NNN-report.md: results a rerun replaced ([`folder`])
 //!   .lock        only while a command writes the folder: one writer at a time ([`lock`])
 //! ```
-//! Every file is written atomically (see [`crate::atomic`]).
+//! Every file is written atomically (see [`crate::atomic`]). [`session`] is the tracking loop
+//! that writes it, segment by segment, with the keys and corrections ([`keyed`], [`blend`]).
 
+pub mod blend;
 pub mod evidence;
 pub mod folder;
 pub mod keyed;
@@ -24,6 +26,7 @@ pub mod lock;
 pub mod manifest;
 pub mod report;
 pub mod segments;
+pub mod session;
 pub mod tracks;
 
 pub use manifest::{hash_clip, ClipId, Manifest, SegmentRecord};
