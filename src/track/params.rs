@@ -29,8 +29,8 @@ pub struct TrackParams {
     /// length).
     pub stretch_min: f32,
     pub stretch_max: f32,
-    /// W_g of eq. 4.5: the cost, against a bone's mean robust colour cost (0–1), of being at the
-    /// edge of the search window.
+    /// W_g of docs/method.md eq. 7–8: the cost, against a bone's mean robust colour cost (0–1), of
+    /// being at the edge of the search window.
     pub geo_weight: f32,
     /// Weight of each bone's colour term in the refinement, against the priors (per px²).
     pub colour_weight: f32,
