@@ -1,6 +1,6 @@
 //! Background model: a clean plate (per-pixel temporal median over frames sampled across the
 //! clip, or a user-supplied plate) and the foreground test used to keep background pixels out of
-//! the template cost (METHOD.md §1, "Background subtraction").
+//! the template cost (docs/method.md §1).
 
 use crate::error::{Error, Result};
 use crate::geom::Point;
@@ -159,7 +159,7 @@ impl Limb {
 }
 
 impl Background {
-    /// Clears from the plate a subject that sat still (METHOD.md §1): a temporal median keeps
+    /// Clears from the plate a subject that sat still (docs/method.md §1): a temporal median keeps
     /// whatever stays put over most of the sampled frames, so two flies resting for 1000 of 1500
     /// frames are in it, and then nothing of them counts as foreground (their limbs are measured
     /// 1 px wide, and a limb laid on the floor looks as good as one laid on the limb).

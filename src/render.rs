@@ -1,5 +1,5 @@
 //! Drawing the deformed character: textured triangles with bilinear texture lookup, composited
-//! "over" the frame in the rig's layer order (METHOD.md §4).
+//! "over" the frame in the rig's layer order (docs/method.md §5.7).
 //!
 //! Texture coordinates are the mesh's rest positions in the character image (px). Colours are
 //! interpolated premultiplied by alpha, so transparent texels never darken the outline. A pixel

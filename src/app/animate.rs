@@ -1,5 +1,5 @@
 //! `mocap2d retarget` and `mocap2d render`: the captured motion onto a target character
-//! (METHOD.md §3–5). Both check every input before writing anything.
+//! (docs/method.md §4–5). Both check every input before writing anything.
 
 use crate::character::{read_character, Backdrop, Character};
 use crate::deform::{DeformOptions, Rig};

@@ -1,5 +1,5 @@
 //! `mocap2d guide CLIP --frame N --out guide.png [--seeds-out starter.toml]`: the seeding guide
-//! of one frame (thesis §3.3, §4.3; see [`crate::review::guide`]).
+//! of one frame (docs/method.md §6; see [`crate::review::guide`]).
 
 use super::{background_for, TrackOptions};
 use crate::decode;

@@ -1,4 +1,4 @@
-//! Deforming the target character (METHOD.md §4, thesis §3.2–3.4), one stage a module:
+//! Deforming the target character (docs/method.md §5), one stage a module:
 //! [`silhouette`] (marching squares on alpha) → [`triangulate`] (uniform samples, constrained
 //! Delaunay) → [`skinning`] (vertices to bones without crossing the silhouette) → [`needle`]
 //! (stage one: the variable-length needle model, area preservation) → [`solve`] (stage two:
@@ -25,7 +25,7 @@ use triangulate::Mesh;
 /// How to deform.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct DeformOptions {
-    /// Needles scale by 1/s when their bone scales by s (thesis §3.4.2).
+    /// Needles scale by 1/s when their bone scales by s (docs/method.md eq. 22).
     pub area_preservation: bool,
     /// Run stage two (the joint-area solve) after stage one.
     pub stage_two: bool,

@@ -1,5 +1,5 @@
-//! The variable-length needle model, stage one of the deformation (METHOD.md §4, thesis
-//! §3.4.1–3.4.2).
+//! The variable-length needle model, stage one of the deformation (docs/method.md
+//! §5.5, eq. 22).
 //!
 //! A vertex is the tip of a needle rooted on its bone: at the fraction `tau` (0 to 1) of the way
 //! from the parent joint to the child, the needle points sideways by `perp` px (positive to the

@@ -1,5 +1,5 @@
-//! The character's silhouette by marching squares on its alpha channel (METHOD.md §4, thesis
-//! §3.2), resampled to evenly spaced points.
+//! The character's silhouette by marching squares on its alpha channel (docs/method.md
+//! §5.1), resampled to evenly spaced points.
 //!
 //! Alpha values sit on pixel centres; the contour is the iso-line at [`ISO`] between them,
 //! placed by linear interpolation along cell edges (sub-pixel). A saddle cell is resolved by the

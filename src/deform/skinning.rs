@@ -1,4 +1,4 @@
-//! Decomposition (skinning), METHOD.md §4 and thesis eq. 3.1: each vertex attaches to its nearest
+//! Decomposition (skinning), docs/method.md §5.3, eq. 21: each vertex attaches to its nearest
 //! bone segment along a path that does not cross the silhouette.
 //!
 //! The distance from a vertex to a bone is the straight distance to the bone's nearest point when
@@ -12,7 +12,7 @@
 //! thickness (plus half a mesh spacing) is *covered* by that bone; among the bones covering it,
 //! the one of the highest draw layer wins (its part is the one in front), then the nearest
 //! relative to its thickness. A vertex no bone covers takes the nearest bone relative to its
-//! thickness (eq. 3.1 with distances in thicknesses, so a wide body keeps its corners). Ties go
+//! thickness (distances in thicknesses, so a wide body keeps its corners). Ties go
 //! to the earlier bone.
 
 use super::silhouette::{distance_to_outline, point_segment_distance};

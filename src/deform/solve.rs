@@ -1,27 +1,27 @@
-//! Stage two of the deformation (METHOD.md §4, thesis §3.4.3, eq. 3.3–3.10): a non-linear least
+//! Stage two of the deformation (docs/method.md §5.6, eq. 23): a non-linear least
 //! squares over the joint-area vertices only, the others staying where stage one put them.
 //!
 //! Free vertices are those of joint triangles (triangles whose vertices are not all on one
 //! bone). The energy has three equally weighted terms:
-//! - **RSI Laplacian coordinates** (3.2–3.3) of free silhouette vertices: at rest,
+//! - **RSI Laplacian coordinates** of free silhouette vertices: at rest,
 //!   `δ_i = V_i − (V_prev + V_next)/2 = a·e + b·e⊥` with `e = V_next − V_prev`; the residual
 //!   `v_i − (v_prev + v_next)/2 − a·e' − b·e'⊥` is linear and invariant to rotation and scale;
-//! - **mean-value coordinates** (3.4–3.6) of free interior vertices over their one-ring:
+//! - **mean-value coordinates** of free interior vertices over their one-ring:
 //!   `v_i − Σ_j w_j v_j`, the weights `w_j ∝ (tan(α_{j−1}/2) + tan(α_j/2)) / |V_j − V_i|`
 //!   from the rest mesh;
-//! - **edge lengths** (3.7) of every edge touching a free vertex: `(v_i − v_j) − l_ij · d_ij`
+//! - **edge lengths** of every edge touching a free vertex: `(v_i − v_j) − l_ij · d_ij`
 //!   with `l_ij` the rest length and `d_ij` the edge's direction at the current iterate;
 //!
 //! plus a faint pull towards the stage-one position that keeps the system well posed. Holding
-//! `d_ij` at the current iterate makes each step a linear least squares with a fixed matrix A
-//! (3.9–3.10): `AᵀA` is factored once (Cholesky, nalgebra), and each Gauss-Newton step is one
-//! solve with a new right-hand side.
+//! `d_ij` at the current iterate makes each step a linear least squares with a fixed matrix A:
+//! `AᵀA` is factored once (Cholesky, nalgebra), and each Gauss-Newton step is one solve with a
+//! new right-hand side.
 
 use super::triangulate::Mesh;
 use crate::geom::Point;
 use nalgebra::{DMatrix, DVector};
 
-/// Weight of each of the three terms (eq. 3.8: equal weights).
+/// Weight of each of the three terms (equal weights, docs/method.md eq. 23).
 const TERM_WEIGHT: f64 = 1.0 / 3.0;
 /// Weight of the pull towards stage one (small: it only keeps the system well posed).
 const ANCHOR_WEIGHT: f64 = 0.02;
@@ -93,7 +93,7 @@ impl JointSolver {
         let neighbours = one_rings(mesh, nv);
         let mut rows = Vec::new();
         let w = TERM_WEIGHT.sqrt();
-        // RSI Laplacian coordinates of free outline vertices (eq. 3.2-3.3).
+        // RSI Laplacian coordinates of free outline vertices (docs/method.md eq. 23).
         for lp in &mesh.outline {
             let n = lp.len();
             for k in 0..n {
@@ -134,7 +134,7 @@ impl JointSolver {
                 });
             }
         }
-        // Mean-value coordinates of free interior vertices (eq. 3.4-3.6).
+        // Mean-value coordinates of free interior vertices (docs/method.md eq. 23).
         for &vi in &free {
             if mesh.on_outline[vi as usize] {
                 continue;
@@ -152,7 +152,7 @@ impl JointSolver {
                 });
             }
         }
-        // Edge lengths of every edge touching a free vertex (eq. 3.7).
+        // Edge lengths of every edge touching a free vertex (docs/method.md eq. 23).
         for (vi, nb) in neighbours.iter().enumerate() {
             let vi = vi as u32;
             for &vj in nb {
@@ -303,8 +303,8 @@ fn one_rings(mesh: &Mesh, nv: usize) -> Vec<Vec<u32>> {
     nb
 }
 
-/// Mean-value weights (eq. 3.4, normalised to sum 1) of the vertex at `c` over its neighbours
-/// `ring`, which must surround it; `None` for a degenerate ring.
+/// Mean-value weights (docs/method.md §5.6, normalised to sum 1) of the vertex at `c` over its
+/// neighbours `ring`, which must surround it; `None` for a degenerate ring.
 fn mean_value_weights(
     c: [f64; 2],
     ring: &[u32],

@@ -1,4 +1,4 @@
-//! The character's mesh (METHOD.md §4, thesis §3.2): the silhouette resampled at spacing `h`,
+//! The character's mesh (docs/method.md §5.2): the silhouette resampled at spacing `h`,
 //! interior points on a hexagonal lattice of spacing `h` (near-equilateral triangles), and a
 //! Delaunay triangulation of both (spade's constrained Delaunay triangulation, the outline as
 //! constraint edges), keeping the triangles inside the silhouette.

@@ -1,13 +1,13 @@
-//! Signal filters over frames (Δt = 1 frame): the cartoon animation filter (METHOD.md §5,
-//! thesis eq. 5.1–5.2) and the optional smoothing of noisy tracks (median, Gaussian).
+//! Signal filters over frames (Δt = 1 frame): the cartoon animation filter (docs/method.md
+//! §4.4, eq. 20) and the optional smoothing of noisy tracks (median, Gaussian).
 //!
 //! Every filter keeps the signal's length and treats the signal as constant beyond its ends, so
 //! a still start or end stays still.
 
-/// The cartoon animation filter, METHOD.md §5: `x*(t) = x(t) − A · (x'' ⊗ G_σ)(t)`, an inverted
-/// Laplacian of Gaussian. `strength` is A (dimensionless), `sigma_frames` the Gaussian's standard
-/// deviation in frames. `x''` is the central second difference (units of x per frame²), zero
-/// beyond the ends. A step becomes undershoot (anticipation) then overshoot (follow-through).
+/// The cartoon animation filter, docs/method.md eq. 20: `x*(t) = x(t) − A · (x'' ⊗ G_σ)(t)`, an
+/// inverted Laplacian of Gaussian. `strength` is A (dimensionless), `sigma_frames` the
+/// Gaussian's standard deviation in frames. `x''` is the central second difference (units of x
+/// per frame²), zero beyond the ends. A step becomes undershoot (anticipation) then overshoot (follow-through).
 pub fn cartoon(x: &[f64], strength: f64, sigma_frames: f64) -> Vec<f64> {
     let n = x.len();
     if n < 3 || strength == 0.0 {

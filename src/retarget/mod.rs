@@ -1,11 +1,11 @@
-//! Retargeting (METHOD.md §3, thesis eq. 4.7–4.8): the captured motion drives a target skeleton,
+//! Retargeting (docs/method.md §4, eq. 16–19): the captured motion drives a target skeleton,
 //! bone by bone: each target bone is driven by a source bone, a pair of source points (joints or
 //! midpoints of two; see [`mapping`]), whatever the two skeletons' shapes.
 //!
 //! For target bone m at frame t with source length `l_mt` and angle `a_mt` (unwrapped) of its
 //! source bone:
-//! `Δl_mt = l_mt / l_m,t−1`, `Δa_mt = a_mt − a_m,t−1` (4.7), applied to the target's rest bone:
-//! `l'_mt = l'_m,t−1 · Δl_mt`, `a'_mt = a'_m,t−1 + Δa_mt` (4.8). The products and sums telescope,
+//! `Δl_mt = l_mt / l_m,t−1`, `Δa_mt = a_mt − a_m,t−1` (16), applied to the target's rest bone:
+//! `l'_mt = l'_m,t−1 · Δl_mt`, `a'_mt = a'_m,t−1 + Δa_mt` (17). The products and sums telescope,
 //! so they are computed as `a'_mt = a'_m0 + (a_mt − a_m0)` and `l'_mt = L'_m · l_mt / L_m`: the
 //! same increments without rounding piling up over a long clip. The lengths are anchored at the
 //! source bone's median length over the clip `L_m` (the target's rest length `L'_m` stands for
@@ -19,7 +19,7 @@
 //! joints follow by forward kinematics.
 //!
 //! Before that, optionally, the source joints are smoothed ([`Smooth`]) and each bone's length
-//! and angle signals go through the cartoon filter ([`Cartoon`], METHOD.md §5).
+//! and angle signals go through the cartoon filter ([`Cartoon`], docs/method.md §4.4).
 //! [`files`] reads and writes `retarget/pose.csv`, `bones.csv` and `retarget.toml`.
 
 pub mod files;
@@ -54,7 +54,7 @@ pub struct Motion {
     pub joints: Vec<Vec<P64>>,
 }
 
-/// The cartoon animation filter's settings (METHOD.md §5).
+/// The cartoon animation filter's settings (docs/method.md §4.4).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cartoon {
     /// A: 0 is off; 1–3 is visible.
@@ -108,7 +108,7 @@ impl std::str::FromStr for Smooth {
     }
 }
 
-/// What `retarget` does on top of eq. 4.7–4.8.
+/// What `retarget` does on top of docs/method.md eq. 16–17.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RetargetOptions {
     pub smooth: Option<Smooth>,
@@ -308,8 +308,8 @@ pub fn motion_from_tracks(rows: &[TrackRow], skeleton: &Skeleton, path: &Path) -
 }
 
 /// Retargets `motion` (source joints) onto the target skeleton whose rest pose in output px is
-/// `rest_out`, each bone driven as `mapping` says ([`mapping::build`]). Implements eq. 4.7–4.8
-/// (see the module docs).
+/// `rest_out`, each bone driven as `mapping` says ([`mapping::build`]). Implements
+/// docs/method.md eq. 16–19 (see the module docs).
 pub fn retarget(
     motion: &Motion,
     target: &Skeleton,

@@ -1,4 +1,4 @@
-//! The seeding guide (thesis §3.3, §4.3): the character's silhouette on one frame (foreground
+//! The seeding guide (docs/method.md §6): the character's silhouette on one frame (foreground
 //! against the clean plate), its curve skeleton by Hilditch thinning ([`super::thin`]), and the
 //! skeleton's end and branch points, numbered, as candidate joints; drawn over the frame, and
 //! written as a starter seed file (`j0`, `j1`, … with parents along the skeleton) for the user

@@ -1,4 +1,4 @@
-//! Seeing and fixing a run: the seeding guide (silhouette skeleton, thesis §3.3/§4.3), the review
+//! Seeing and fixing a run: the seeding guide (silhouette skeleton, docs/method.md §6), the review
 //! outputs (overlay video, confidence plot, segment contact sheet) and the local correction page.
 
 pub mod api;

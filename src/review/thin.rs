@@ -1,8 +1,8 @@
-//! Hilditch thinning (thesis §3.3): a binary mask peeled layer by layer down to its curve
+//! Hilditch thinning (docs/method.md §6): a binary mask peeled layer by layer down to its curve
 //! skeleton, one pixel wide and 8-connected, with the mask's topology (no part cut off, no hole
 //! opened or closed).
 //!
-//! Neighbours of a pixel P1 are numbered as in the thesis' Figure 3.4, clockwise from north:
+//! Neighbours of a pixel P1 are numbered clockwise from north (docs/method.md §6):
 //! ```text
 //!   P9 P2 P3
 //!   P8 P1 P4

@@ -1,4 +1,4 @@
-//! Segments (METHOD.md §2 "Segments"): the clip is cut, from the seed frame on, into segments of
+//! Segments (docs/method.md §3): the clip is cut, from the seed frame on, into segments of
 //! `segment_len` frames. Each segment's first frame gets `segments/NNN.toml`, a seed file
 //! (`frame =` that first frame) holding the rectangles tracked there with each joint's `angle`,
 //! `score` and `status`: tracking goes on through it as it was, unless the user corrects it,

@@ -1,5 +1,5 @@
-//! Hidden joints: where a joint goes when its colour evidence has collapsed (METHOD.md §2,
-//! "Occlusion": the motion model keeps it on its path), and how it is found again.
+//! Hidden joints: where a joint goes when its colour evidence has collapsed (docs/method.md §2.5:
+//! the motion model keeps it on its path), and how it is found again.
 
 use super::motion::Prediction;
 use super::search::{grid_min_bounded, grid_min_bounded_serial, Window};

@@ -1,4 +1,4 @@
-//! Constant-acceleration Kalman filters (METHOD.md eq. 4.3–4.4, with the update step).
+//! Constant-acceleration Kalman filters (docs/method.md §2.1, eq. 2–3).
 //!
 //! [`Ca`] filters one scalar signal with state `(s, s', s'')` per frame (Δt = 1 frame): a root
 //! joint's x or y (px, px/frame, px/frame²), or a bone's direction (rad) or log length. [`Kalman`]
@@ -8,7 +8,8 @@
 use crate::geom::{Point, Vector};
 use nalgebra::{Matrix3, Vector3};
 
-/// Transition matrix F = [[1, Δt, Δt²/2], [0, 1, Δt], [0, 0, 1]] with Δt = 1 frame (eq. 4.3).
+/// Transition matrix F = [[1, Δt, Δt²/2], [0, 1, Δt], [0, 0, 1]] with Δt = 1 frame
+/// (docs/method.md eq. 2).
 fn transition() -> Matrix3<f32> {
     Matrix3::new(1.0, 1.0, 0.5, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0)
 }
@@ -65,7 +66,7 @@ impl Ca {
         self.cov[(0, 0)].max(0.0).sqrt()
     }
 
-    /// Predict step: S ← F S, P ← F P Fᵀ + Q (eq. 4.3). Returns the predicted value.
+    /// Predict step: S ← F S, P ← F P Fᵀ + Q (docs/method.md eq. 2). Returns the predicted value.
     pub fn predict(&mut self) -> f32 {
         let f = transition();
         self.s = f * self.s;
@@ -73,7 +74,7 @@ impl Ca {
         self.s[0]
     }
 
-    /// Update step with a measured value `z` of variance `var` (eq. 4.4).
+    /// Update step with a measured value `z` of variance `var` (docs/method.md eq. 3).
     pub fn update(&mut self, z: f32, var: f32) {
         let k = self.cov.column(0) / (self.cov[(0, 0)] + var);
         self.s += k * (z - self.s[0]);
@@ -157,7 +158,7 @@ impl Kalman {
         Vector::new(self.x.rate(), self.y.rate())
     }
 
-    /// Predict step (eq. 4.3). Returns the predicted position.
+    /// Predict step (docs/method.md eq. 2). Returns the predicted position.
     pub fn predict(&mut self) -> Point {
         Point::new(self.x.predict(), self.y.predict())
     }
@@ -167,7 +168,8 @@ impl Kalman {
         self.x.sigma().max(self.y.sigma())
     }
 
-    /// Update step with a measured position `z` of variance `var` px² per axis (eq. 4.4).
+    /// Update step with a measured position `z` of variance `var` px² per axis
+    /// (docs/method.md eq. 3).
     pub fn update(&mut self, z: Point, var: f32) {
         self.x.update(z.x, var);
         self.y.update(z.y, var);

@@ -1,4 +1,4 @@
-//! Locating the joints on a frame: the coarse search (METHOD.md eq. 4.5–4.6, an exhaustive
+//! Locating the joints on a frame: the coarse search (docs/method.md §2.3, eq. 7–8, an exhaustive
 //! search over windows sized by the motion model) and the joint Gauss–Newton refinement.
 
 use super::model::End;

@@ -1,10 +1,10 @@
-//! Joint tracking (METHOD.md §2), one frame at a time, by [`Tracker`]:
+//! Joint tracking (docs/method.md §2), one frame at a time, by [`Tracker`]:
 //!
-//! 1. **Predict** every joint with constant-acceleration Kalman filters (eq. 4.3–4.4,
+//! 1. **Predict** every joint with constant-acceleration Kalman filters (§2.1,
 //!    [`kalman`], [`motion`]): a root's position in the image, every other joint's bone
 //!    direction and log length relative to its parent, so a swinging limb is predicted along its
-//!    arc (eq. 4.2's rotation).
-//! 2. **Search** (eq. 4.5–4.6, [`locate`]): on coarse levels of an image [`pixels::Pyramid`], the
+//!    arc.
+//! 2. **Search** (§2.3, [`locate`]): on coarse levels of an image [`pixels::Pyramid`], the
 //!    whole body's translation, then down the skeleton each bone's angle and length, scored by
 //!    the robust colour cost of its [`strip`] (its seed appearance, rotated and stretched with
 //!    the bone) plus the distance from the prediction, over windows sized by the filters'

@@ -1,4 +1,4 @@
-//! Motion models (METHOD.md eq. 4.3–4.4): a constant-acceleration Kalman filter of a root's
+//! Motion models (docs/method.md §2.1, eq. 2–3): a constant-acceleration Kalman filter of a root's
 //! position, and of every other joint's bone direction and log length relative to its parent,
 //! so that a swinging limb is predicted along its arc.
 
@@ -63,8 +63,8 @@ impl Motion {
         }
     }
 
-    /// Predict step (eq. 4.3). `parent` is the parent's predicted position (ignored for a root);
-    /// a root is kept within `[0, frame_max]`.
+    /// Predict step (docs/method.md eq. 2). `parent` is the parent's predicted position (ignored
+    /// for a root); a root is kept within `[0, frame_max]`.
     pub fn predict(&mut self, parent: Option<Point>, frame_max: Point) -> Prediction {
         match self {
             Motion::Root(k) => {
@@ -94,8 +94,8 @@ impl Motion {
         }
     }
 
-    /// Update step (eq. 4.4) with the joint at `at` and its parent at `parent` (px), measured to
-    /// within `sigma_px` (px).
+    /// Update step (docs/method.md eq. 3) with the joint at `at` and its parent at `parent` (px),
+    /// measured to within `sigma_px` (px).
     pub fn update(&mut self, at: Point, parent: Option<Point>, sigma_px: f32) {
         match self {
             Motion::Root(k) => k.update(at, sigma_px * sigma_px),

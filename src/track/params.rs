@@ -29,8 +29,8 @@ pub struct TrackParams {
     /// length).
     pub stretch_min: f32,
     pub stretch_max: f32,
-    /// W_g of eq. 4.5: the cost, against a bone's mean robust colour cost (0–1), of being at the
-    /// edge of the search window.
+    /// W_g of docs/method.md eq. 7–8: the cost, against a bone's mean robust colour cost (0–1), of
+    /// being at the edge of the search window.
     pub geo_weight: f32,
     /// Weight of each bone's colour term in the refinement, against the priors (per px²).
     pub colour_weight: f32,
@@ -68,11 +68,10 @@ pub struct TrackParams {
     /// Colour distance (levels, RGB) within which a seed pixel shared by two bones' strips is
     /// taken for the other bone's (see `Strip::doubt_foreign`); 0 turns this off.
     pub foreign_tolerance: f32,
-    /// How a limb's width follows its length, ×(L₀/L)^γ: 0 keeps it, 0.5 is a cartoon
-    /// squash-and-stretch, 1 keeps the area in the image. Default 0.5: measured against 0
-    /// (PCK@5, 640×360), the 15 short synth clips (5 scenarios × seeds 1–3) 96.0 vs 93.8 %
-    /// mean, `long` seeds 1–5 86.5 vs 79.1 % mean (with `redetect_share` 0.2), flies 70.8 vs
-    /// 70.4 %.
+    /// How a limb's width follows its length, ×(L₀/L)^γ (docs/method.md eq. 4): 0 keeps it,
+    /// 0.5 is a cartoon squash-and-stretch, 1 keeps the area in the image. Default 0.5: more
+    /// accurate than 0 on the synthetic clips, no worse on real footage (docs/NOTES.md,
+    /// "Parameter sweeps").
     pub width_exponent: f32,
     /// Most samples per bone.
     pub max_samples: usize,
@@ -134,15 +133,13 @@ pub struct TrackParams {
     pub redetect_every: u32,
     /// A body found again over the whole frame is taken when its root's evidence (share of
     /// fitting samples near it) is at least this. After a turn the far and near limbs trade
-    /// places, so a body found where it is fits only 0.2–0.3 around the root: on `long` seeds
-    /// 1–5, 0.2 gives 86.5 % mean PCK@5, 0.3 85.7 %, 0.4 79.0 % (one seed lost for 300
-    /// frames).
+    /// places, so a body found where it is fits only 0.2–0.3 around the root; a higher share
+    /// leaves a turned body lost (docs/NOTES.md, "Parameter sweeps").
     pub redetect_share: f32,
 }
 
-/// The defaults. `anchor_weight`, `update_rate`, `meas_sigma_px` and `reacquire_share` were
-/// retuned in the sixth session on 150 synth clips (`scripts/accuracy`, seeds 1–30 of the five
-/// short scenarios): mean PCK@5 95.8 → 97.0 %, at about 6 % more time a frame (README,
+/// The defaults, chosen on many synthetic clips at once (`scripts/accuracy`, seeds 1–30 of the
+/// five short scenarios) rather than on one, and checked on the real clips (docs/benchmarks.md,
 /// "Accuracy").
 impl Default for TrackParams {
     fn default() -> Self {

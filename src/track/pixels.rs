@@ -1,5 +1,5 @@
-//! Reading a frame at sub-pixel positions: bilinear colour and its gradient (METHOD.md eq. 4.2's
-//! bilinear resampling), the only way the tracker looks at pixels.
+//! Reading a frame at sub-pixel positions: bilinear colour and its gradient (docs/method.md
+//! §2.2), the only way the tracker looks at pixels.
 //!
 //! Positions follow [`crate::geom`]'s conventions: px, origin top-left, pixel centres on integer
 //! coordinates. A position whose 2×2 neighbourhood leaves the frame reads as `None`.

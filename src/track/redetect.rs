@@ -1,7 +1,7 @@
 //! Whole-body re-detection: a body whose root has gone unseen for a while (the character turned,
 //! crossed the frame while hidden, or the tracker slid off it) is looked for over the whole frame,
-//! so a lost track comes back instead of staying where it was lost (METHOD.md §2, occlusion:
-//! "widen the search as uncertainty grows", here to the whole frame).
+//! so a lost track comes back instead of staying where it was lost (docs/method.md §2.6:
+//! the search widened to the whole frame).
 //!
 //! The body is searched rigidly, in the pose it had when it was lost and in its seed pose, each
 //! as it is and mirrored left to right (a character that turned round), at the coarsest pyramid

@@ -1,6 +1,6 @@
-//! Exhaustive search over a window (METHOD.md eq. 4.5–4.6, "an exhaustive search over the window
-//! is the robust form" of the thesis's greedy walk): a grid over two parameters, then two finer
-//! passes around the best cell.
+//! Exhaustive search over a window (docs/method.md §2.3, eq. 7–8; exhaustive rather than a
+//! greedy walk from the prediction, which stops in the first local minimum): a grid over two
+//! parameters, then two finer passes around the best cell.
 
 use rayon::prelude::*;
 

@@ -1,8 +1,8 @@
 //! Joint refinement: all joints of a frame placed at once by Gauss–Newton (damped) on
 //!
 //! ```text
-//! E(X) = Σ_bones K·mean_s ρ(e_s)                     colour, eq. 4.1 made robust
-//!      + Σ_joints w_j |x_j − x_parent − r̂_j|²          geometric prior, eq. 4.5–4.6
+//! E(X) = Σ_bones K·mean_s ρ(e_s)                     colour, docs/method.md eq. 5
+//!      + Σ_joints w_j |x_j − x_parent − r̂_j|²          motion prior (eq. 9)
 //!      + Σ_bones w_b (|C − P| − L̂_b)²                  bones change length slowly
 //! ```
 //!

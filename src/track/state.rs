@@ -1,5 +1,5 @@
 //! A tracker's state, as bytes: what a segment's tracker hands on to the next one
-//! (`segments/NNN.state`, see `crate::app::segmented`), so that a segment the user did not
+//! (`segments/NNN.state`, see `crate::run::session`), so that a segment the user did not
 //! correct goes on exactly as one tracker through the clip would: which strips are laid
 //! mirrored (the character turned round), the running colours, which samples are reliable,
 //! the typical costs, every joint's motion filters, hidden run and last estimate. Every float

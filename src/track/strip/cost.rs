@@ -1,4 +1,4 @@
-//! What a strip costs laid at a pose (METHOD.md eq. 4.1 made robust, see the module doc of
+//! What a strip costs laid at a pose (docs/method.md eq. 5, see the module doc of
 //! [`super`]): per-sample residuals, the coarse search cost (with its early stop), the fit
 //! statistics, and the Gauss–Newton normal equations of the refinement.
 

@@ -1,7 +1,7 @@
 //! Bone strips: the seed appearance of one bone (parent joint → child joint), stored in the
-//! bone's own coordinates so that it can be laid onto any later pose of the bone (METHOD.md
-//! eq. 4.2, rotation resampling, applied to the whole limb segment rather than to a joint
-//! rectangle).
+//! bone's own coordinates so that it can be laid onto any later pose of the bone (docs/method.md
+//! §2.2, eq. 4: the pixels resampled turned and stretched with the whole limb segment rather
+//! than with a joint rectangle).
 //!
 //! A joint rectangle holds two limbs that turn differently (upper arm and forearm at the elbow),
 //! so one rotated template never fits both; a bone is rigid up to stretch. A sample at
@@ -11,11 +11,11 @@
 //! stretching, `v` (px) runs across. A joint without any bone (a lone root) gets a
 //! [`Shape::Patch`] instead: its seed rectangle, translated but never turned.
 //!
-//! Costs are eq. 4.1's colour difference made robust: per sample `e = |I(x) − g·T|² / (3σ²)`
-//! (`g` the frame's brightness gain, `σ` the strip's colour scale in levels per channel),
-//! through the bounded Geman–McClure penalty `ρ(e) = e / (1 + e)`. A pixel of another limb costs
-//! at most 1, so a partly hidden bone is still placed by its visible part, and the share of
-//! samples that fit ([`Fit::inliers`]) says how much of it is seen.
+//! Costs are a robust colour difference (docs/method.md eq. 5): per sample
+//! `e = |I(x) − g·T|² / (3σ²)` (`g` the frame's brightness gain, `σ` the strip's colour scale in
+//! levels per channel), through the bounded Geman–McClure penalty `ρ(e) = e / (1 + e)`. A pixel
+//! of another limb costs at most 1, so a partly hidden bone is still placed by its visible part,
+//! and the share of samples that fit ([`Fit::inliers`]) says how much of it is seen.
 //!
 //! Each sample also carries a reliability learnt as the clip goes ([`Strip::learn`]): a seed
 //! pixel that turns out to move with another bone (the torso showing where the far arm is
@@ -296,7 +296,7 @@ pub struct StripSpec {
     pub sigma: f32,
     /// How the limb's width follows its length: ×(L₀/L)^γ. 0: rigid width (real limbs,
     /// foreshortening); 0.5: the width of a cartoon squash-and-stretch that keeps its volume in
-    /// depth; 1: area kept in the image plane (METHOD.md §4's needle model).
+    /// depth; 1: area kept in the image plane (as docs/method.md §5.5's needle model keeps it).
     pub width_exponent: f32,
 }
 

@@ -8,12 +8,10 @@ use crate::track::pixels::{Pyramid, Rgb, MAX_LEVELS};
 
 /// A bone's axis counts as on the clean plate (the plate holds a character that rested while
 /// it was sampled) only where its seed pixels are within this share of the foreground
-/// threshold of the plate; its samples' own test is the whole threshold. Measured (PCK@5, 640x360, the five scenarios × seeds
-/// 1–30): the same test as the samples' (1.0) 97.6 %, noisy 96.7 %; 0.75 97.6 %, noisy 96.9 %,
-/// four clips changed (noisy seed 8, whose grey shoe on a grey floor was lost and scored `ok`,
-/// 91.1 → 97.5 %; seeds 21 and 24 +0.3 and +0.2; seed 9 97.0 → 96.2 %); 0.5 noisy 96.8 % (seed 21
-/// 91.2 → 87.5 %). `long` seeds 1–5 and the flies, whose resting bodies this rule is for,
-/// unchanged.
+/// threshold of the plate; its samples' own test is the whole threshold. Tighter than the
+/// samples' test, so a limb whose colour is close to the floor's (a grey shoe on a grey floor)
+/// is not taken for a resting body; tighter still loses other clips (docs/NOTES.md, "Parameter
+/// sweeps").
 const AXIS_PLATE_SHARE: f32 = 0.75;
 
 impl Strip {
