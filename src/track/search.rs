@@ -13,8 +13,11 @@ pub struct Window {
 }
 
 /// Minimises `f` over `w`: every grid point of the window, then 3×3 neighbourhoods of the best
-/// point at half and a quarter of the step. Returns the best point and its cost. Ties keep the
-/// first point found (row by row from the low corner), so results are deterministic.
+/// point at half and a quarter of the step. A window of more than [`MAX_STEPS`] steps a side is
+/// walked at the step doubled until it fits, its [`KEEP`] best points each refined by as many
+/// more halvings, down to a quarter of the asked step. Returns the best point and its cost.
+/// Ties keep the first point found (row by row from the low corner), so results are
+/// deterministic.
 pub fn grid_min(w: &Window, f: impl Fn([f32; 2]) -> f32 + Sync) -> ([f32; 2], f32) {
     grid_min_bounded(w, |q, _| f(q))
 }
@@ -45,6 +48,20 @@ fn grid_min_in_runs(
     runs: usize,
     f: impl Fn([f32; 2], f32) -> f32 + Sync,
 ) -> ([f32; 2], f32) {
+    // A window wider than `MAX_STEPS` steps a side is walked at a coarser step (doubled until
+    // it fits) and refined by as many more halving passes, so the work of one search is
+    // bounded whatever the bone's length in pixels and the prediction's uncertainty.
+    let mut w = *w;
+    let mut extra = 0;
+    for i in 0..2 {
+        let mut k = 0;
+        while w.step[i] > 0.0 && (w.half[i] / w.step[i]).ceil() > MAX_STEPS as f32 {
+            w.step[i] *= 2.0;
+            k += 1;
+        }
+        extra = extra.max(k);
+    }
+    let w = &w;
     let n = [0, 1].map(|i| {
         if w.step[i] > 0.0 {
             (w.half[i] / w.step[i]).ceil().max(0.0) as i32
@@ -64,28 +81,95 @@ fn grid_min_in_runs(
             ]);
         }
     }
-    let mut best = (w.centre, f(w.centre, f32::INFINITY));
-    lowest(&points, runs, &f, &mut best);
-    let mut step = w.step;
-    for _ in 0..2 {
-        step = [step[0] * 0.5, step[1] * 0.5];
-        let centre = best.0;
-        points.clear();
-        for a in -1..=1 {
-            for b in -1..=1 {
-                if a == 0 && b == 0 {
-                    continue;
+    let first = (w.centre, f(w.centre, f32::INFINITY));
+    // A full grid keeps its best point; a coarsened one keeps its `KEEP` best, each refined,
+    // so that a narrow valley between two coarse points is not lost to a broad one.
+    let starts = if extra == 0 {
+        let mut best = first;
+        lowest(&points, runs, &f, &mut best);
+        vec![best]
+    } else {
+        lowest_k(&points, runs, &f, first, KEEP)
+    };
+    let mut result: Option<([f32; 2], f32)> = None;
+    for start in starts {
+        let mut best = start;
+        let mut step = w.step;
+        for _ in 0..2 + extra {
+            step = [step[0] * 0.5, step[1] * 0.5];
+            let centre = best.0;
+            points.clear();
+            for a in -1..=1 {
+                for b in -1..=1 {
+                    if a == 0 && b == 0 {
+                        continue;
+                    }
+                    points.push([
+                        centre[0] + a as f32 * step[0],
+                        centre[1] + b as f32 * step[1],
+                    ]);
                 }
-                points.push([
-                    centre[0] + a as f32 * step[0],
-                    centre[1] + b as f32 * step[1],
-                ]);
+            }
+            lowest(&points, 1, &f, &mut best);
+        }
+        if result.is_none_or(|r| best.1 < r.1) {
+            result = Some(best);
+        }
+    }
+    result.expect("at least the centre")
+}
+
+/// The `k` lowest of `first` and `points` (lowest first; ties in order), the points cut into
+/// `runs` runs evaluated in parallel, each judged against its run's `k`-th best so far.
+fn lowest_k(
+    points: &[[f32; 2]],
+    runs: usize,
+    f: &(impl Fn([f32; 2], f32) -> f32 + Sync),
+    first: ([f32; 2], f32),
+    k: usize,
+) -> Vec<([f32; 2], f32)> {
+    let k = k.max(1);
+    let run = |chunk: &[[f32; 2]]| {
+        let mut kept = vec![first];
+        for &q in chunk {
+            let lim = if kept.len() < k {
+                f32::INFINITY
+            } else {
+                kept[k - 1].1
+            };
+            let c = f(q, lim);
+            if c < lim {
+                let at = kept.partition_point(|e| e.1 <= c);
+                kept.insert(at, (q, c));
+                kept.truncate(k);
             }
         }
-        lowest(&points, 1, &f, &mut best);
+        kept
+    };
+    let size = points.len().div_ceil(runs.max(1)).max(1);
+    let lists: Vec<Vec<([f32; 2], f32)>> = if runs > 1 {
+        points.par_chunks(size).map(run).collect()
+    } else {
+        vec![run(points)]
+    };
+    let mut all = vec![first];
+    for list in lists {
+        all.extend(list.into_iter().filter(|e| e.0 != first.0));
     }
-    best
+    // Stable: equal costs keep the order of the runs.
+    all.sort_by(|a, b| a.1.total_cmp(&b.1));
+    all.truncate(k);
+    all
 }
+
+/// Most grid steps on each side of a window's centre (see [`grid_min_bounded`]): a search
+/// costs at most `(2·16 + 1)²` points and its refinements, so a joint that is lost, or a long
+/// bone on a large subject, costs about what a found joint on a small one does (docs/method.md
+/// §2, "Search").
+pub const MAX_STEPS: i32 = 16;
+
+/// Best points of a coarsened grid that are each refined (see [`MAX_STEPS`]).
+pub const KEEP: usize = 4;
 
 /// How many runs the coarse grid of [`grid_min_bounded`] is cut into: enough to keep two cores
 /// busy, few enough that most points are judged against a good best point.
@@ -217,6 +301,78 @@ mod tests {
             }
         }
         best
+    }
+
+    #[test]
+    fn a_wide_window_is_walked_coarsely_and_still_refined_to_a_quarter_step() {
+        // 200 steps a side: 160 801 points walked in full; capped, a 33 × 33 grid and the
+        // refinements of its best points.
+        let f = |q: [f32; 2]| (q[0] - 31.3).powi(2) + (q[1] + 17.7).powi(2);
+        let w = Window {
+            centre: [0.0, 0.0],
+            half: [200.0, 200.0],
+            step: [1.0, 1.0],
+        };
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let (q, _) = grid_min(&w, |q| {
+            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            f(q)
+        });
+        assert!(
+            (q[0] - 31.3).abs() <= 0.25 && (q[1] + 17.7).abs() <= 0.25,
+            "{q:?}"
+        );
+        let calls = calls.into_inner();
+        let grid = (2 * MAX_STEPS as usize + 1).pow(2);
+        // Step 1 doubled 4 times (16 × 16 ≥ 200): 2 + 4 refinement passes of 8 points each.
+        assert!(calls <= grid + KEEP * 6 * 8, "{calls} evaluations");
+    }
+
+    #[test]
+    fn a_narrow_valley_beside_a_broad_one_is_kept_by_the_coarse_walk() {
+        // Two valleys: a shallow one centred on a coarse grid point (cost 1) and a deeper one
+        // (0.5) between coarse points, whose nearest coarse point costs 1.04: second on the
+        // coarse grid, so only refining more than the single best coarse point finds it.
+        let f = |q: [f32; 2]| {
+            let shallow = 1.0 + 0.001 * ((q[0] + 80.0).powi(2) + q[1].powi(2));
+            let deep = 0.5 + 0.03 * ((q[0] - 37.0).powi(2) + (q[1] - 5.0).powi(2));
+            shallow.min(deep)
+        };
+        let w = Window {
+            centre: [0.0, 0.0],
+            half: [128.0, 128.0],
+            step: [1.0, 1.0],
+        };
+        let (q, _) = grid_min(&w, f);
+        assert!(
+            (q[0] - 37.0).abs() <= 0.5 && (q[1] - 5.0).abs() <= 0.5,
+            "{q:?}"
+        );
+    }
+
+    #[test]
+    fn a_capped_search_gives_the_same_point_on_any_thread_count() {
+        let f = |q: [f32; 2]| ((q[0] * 0.37).sin() + (q[1] * 0.21).cos() + 2.0).floor() * 0.5;
+        let w = Window {
+            centre: [0.3, -0.2],
+            half: [90.0, 60.0],
+            step: [0.5, 0.5],
+        };
+        let bounded = |q: [f32; 2], limit: f32| {
+            let c = f(q);
+            if c >= limit {
+                limit + 1.0
+            } else {
+                c
+            }
+        };
+        let parallel = grid_min_bounded(&w, bounded);
+        assert_eq!(parallel, grid_min_bounded_serial(&w, bounded));
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        assert_eq!(parallel, one.install(|| grid_min_bounded(&w, bounded)));
     }
 
     #[test]
