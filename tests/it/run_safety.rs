@@ -9,8 +9,7 @@ use std::os::unix::ffi::OsStringExt;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// `dir/NAME` with a byte 0xff in NAME (not UTF-8).
 fn not_utf8(dir: &Path, before: &str, after: &str) -> PathBuf {

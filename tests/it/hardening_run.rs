@@ -8,8 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// `track` of the sample clip into `out`, then `retarget` onto the robot.
 fn tracked_and_retargeted(out: &Path) {

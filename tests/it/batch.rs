@@ -4,7 +4,7 @@
 //! stopping the batch cleanly for a re-run to finish.
 #![cfg(feature = "ffmpeg")]
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

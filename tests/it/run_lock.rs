@@ -7,8 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// A synth walk of `frames` frames (320×240) in `dir`: (clip, seed file).
 fn synth_walk(dir: &Path, frames: u32) -> (PathBuf, PathBuf) {

@@ -9,8 +9,8 @@ use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Duration;
 
-mod common;
-use common::*;
+use crate::common;
+use crate::common::*;
 
 /// The sample clip looped `times` times (remuxed, not re-encoded) into `path`.
 fn long_clip(path: &Path, times: u32) {
