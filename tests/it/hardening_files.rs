@@ -248,7 +248,7 @@ fn character_with_ten_thousand_joints_parses_quickly() {
 /// tracks-, dlc_csv-, manifest-.
 #[test]
 fn fuzz_findings_give_errors_not_panics() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
+    let dir = crate::common::root().join("tests/fuzz_regressions");
     let Ok(entries) = std::fs::read_dir(&dir) else {
         return;
     };

@@ -123,29 +123,6 @@ fn assert_checkpoint(run: &Path) {
     assert!(!run.join("tracks.csv").exists());
 }
 
-/// Every file of a folder, sub-folders included (relative path, bytes).
-fn folder_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    files(dir)
-        .into_iter()
-        .map(|p| {
-            let rel = p.strip_prefix(dir).unwrap().display().to_string();
-            (rel, std::fs::read(&p).unwrap())
-        })
-        .collect()
-}
-
-fn assert_same_folders(a: &Path, b: &Path) {
-    let (x, y) = (folder_bytes(a), folder_bytes(b));
-    assert_eq!(
-        x.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        y.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        "the same files"
-    );
-    for ((name, x), (_, y)) in x.iter().zip(&y) {
-        assert!(x == y, "{name} differs from the uninterrupted run's");
-    }
-}
-
 #[test]
 fn sigint_during_resume_stops_promptly_and_resume_finishes_the_run() {
     let dir = tempfile::tempdir().unwrap();
