@@ -153,7 +153,7 @@ fn noise_flicker_and_compression_are_tracked() {
 
 /// 900 frames of mixed actions with three turns: slow in a debug build, so release-only.
 #[test]
-#[ignore = "long clip: run with cargo test --release -- --ignored"]
+#[ignore = "long clip: run with cargo test --release --test it accuracy:: -- --ignored"]
 fn long_clip_with_turns_is_tracked() {
     // Default segments of 150: tracking goes on through uncorrected segment files (one
     // segment: 80.5 %).

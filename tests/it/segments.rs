@@ -329,7 +329,7 @@ fn correcting_only_the_worst_segment_makes_the_rest_better() {
 
 /// The same on `long` at 640×360 in segments of 150.
 #[test]
-#[ignore = "long clip: run with cargo test --release --test segments -- --ignored"]
+#[ignore = "long clip: run with cargo test --release --test it segments:: -- --ignored"]
 fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let run = s.path("run");
@@ -345,7 +345,7 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
 
 /// The acceptance test: 900 frames at 640×360, segments of 150.
 #[test]
-#[ignore = "long clip: run with cargo test --release --test segments -- --ignored"]
+#[ignore = "long clip: run with cargo test --release --test it segments:: -- --ignored"]
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);

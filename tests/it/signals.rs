@@ -1,7 +1,7 @@
 //! Ctrl-C (SIGINT) during `track`, `render` and `resume`: each stops within seconds with exit
 //! code 130 and the "interrupted" message, leaves no temp file and no half-written file, and an
 //! interrupted `track` or `resume` keeps a consistent checkpoint that `resume` finishes to the
-//! very bytes of an uninterrupted run. (`batch` is in `tests/batch.rs`.)
+//! very bytes of an uninterrupted run. (`batch` is in `tests/it/batch.rs`.)
 #![cfg(feature = "ffmpeg")]
 
 use mocap2d::run::Manifest;
