@@ -128,10 +128,11 @@ fn decode(c: &mut Criterion) {
         g.bench_with_input(BenchmarkId::from_parameter(clip.size()), clip, |b, clip| {
             b.iter(|| {
                 let source = decode::open_beside_tracking(&clip.path, None).unwrap();
-                let n = decode::spawn_reader(source, 8)
-                    .into_iter()
-                    .map(|r| black_box(r.unwrap()))
-                    .count();
+                let mut n = 0;
+                for item in decode::spawn_reader(source, 8) {
+                    black_box(item.unwrap());
+                    n += 1;
+                }
                 assert_eq!(n, clip.frames.len());
             })
         });
