@@ -1,21 +1,16 @@
 //! A tracker built on a correction keyframe takes the seed frame's appearance for the bones
 //! hidden on that keyframe, and only for those.
 
+use crate::common::synth_clip;
 use mocap2d::background::Background;
 use mocap2d::seed::parse_seeds;
-use mocap2d::synth::{render, Scenario, SynthOptions};
+use mocap2d::synth::Scenario;
 use mocap2d::track::Tracker;
 use std::path::Path;
 
 #[test]
 fn bones_hidden_on_a_keyframe_keep_the_seed_appearance() {
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Occlude,
-        width: 640,
-        height: 360,
-        seed: 1,
-        frames: Some(120),
-    });
+    let clip = synth_clip(Scenario::Occlude, 640, 360, 1, Some(120));
     let seeds = parse_seeds(&clip.seeds_toml(), Path::new("seeds")).unwrap();
     let name = |j: usize| clip.joint_names[j].as_str();
     let wrist = clip

@@ -5,15 +5,9 @@
 //! The sample clip is an mp4, so the file needs the `ffmpeg` feature (on by default).
 #![cfg(feature = "ffmpeg")]
 
+use crate::common::{assert_exit, bin, run_in, s, stderr, walk};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-/// The bundled sample: clip.mp4, joints.toml, gt.csv, background.png.
-fn walk(file: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("clips/walk")
-        .join(file)
-}
+use std::process::Output;
 
 /// Joints in clips/walk/joints.toml and frames in clips/walk/clip.mp4.
 const JOINTS: usize = 14;
@@ -46,11 +40,7 @@ impl Dir {
 
     /// Runs `mocap2d ARGS` with the temp dir as working directory.
     fn run(&self, args: &[&str]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-            .args(args)
-            .current_dir(self.tmp.path())
-            .output()
-            .unwrap()
+        run_in(self.tmp.path(), args)
     }
 
     /// Runs `mocap2d track` on the bundled sample into `out`, with `extra` arguments.
@@ -69,24 +59,6 @@ impl Dir {
         assert_exit(&o, 0);
         self.path(out)
     }
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn assert_exit(o: &Output, code: i32) {
-    assert_eq!(
-        o.status.code(),
-        Some(code),
-        "exit code; stdout:\n{}\nstderr:\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        stderr(o)
-    );
 }
 
 fn read(p: &Path) -> String {
@@ -342,7 +314,7 @@ fn eval_prints_accuracy() {
         "{out}"
     );
     // Piped into a reader that has gone (`| head -1`): a quiet success, not a panic.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+    let mut child = bin()
         .args(["eval", s(&run), "--gt", s(&walk("gt.csv")), "--per-joint"])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())

@@ -2,9 +2,10 @@
 //! run lacks counts as misses and is named; no joint name in common is refused (exit 2), naming
 //! both sides' joints.
 
+use crate::common::bin;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// A run folder tracking joints `a` and `b` on frames 3..7: `a` at (10, 10), `b` at (20, 20).
 fn run(dir: &Path) -> PathBuf {
@@ -20,7 +21,7 @@ fn run(dir: &Path) -> PathBuf {
 }
 
 fn eval(run: &Path, gt: &Path, extra: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+    bin()
         .args(["eval", run.to_str().unwrap(), "--gt", gt.to_str().unwrap()])
         .args(extra)
         .output()

@@ -6,63 +6,15 @@
 //! sample clip.
 #![cfg(feature = "ffmpeg")]
 
+use crate::common::{self, assert_ok, run, s, stderr, temp_files, walk};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn walk(file: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("clips/walk")
-        .join(file)
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Asserts the exit code, and that the message is one `mocap2d:` line naming each of `parts`.
+/// [`common::assert_fails`], and the message is one `mocap2d:` line.
 fn assert_fails(o: &Output, code: i32, parts: &[&str]) -> String {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(code), "exit code; stderr:\n{err}");
+    let err = common::assert_fails(o, code, parts);
     assert!(err.starts_with("mocap2d: "), "{err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for p in parts {
-        assert!(err.contains(p), "message lacks {p:?}:\n{err}");
-    }
     err
-}
-
-fn assert_ok(o: &Output) -> String {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(0), "exit code; stderr:\n{err}");
-    err
-}
-
-/// Every file under `dir` whose name ends in `.tmp` (a temp file left behind).
-fn temp_files(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return out;
-    };
-    for e in entries.flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            out.extend(temp_files(&p));
-        } else if p.to_string_lossy().ends_with(".tmp") {
-            out.push(p);
-        }
-    }
-    out
 }
 
 /// A seed file of one joint `w`×`h` px centred at (`x`, `y`).

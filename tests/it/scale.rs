@@ -1,10 +1,11 @@
 //! The working resolution: large frames are tracked halved, with positions in and out at the
 //! frame's own resolution.
 
+use crate::common::synth_clip;
 use image::RgbImage;
 use mocap2d::background::Background;
 use mocap2d::seed::parse_seeds;
-use mocap2d::synth::{render, Scenario, SynthOptions};
+use mocap2d::synth::Scenario;
 use mocap2d::track::{TrackParams, Tracker};
 use std::path::Path;
 
@@ -21,13 +22,7 @@ fn doubled(img: &RgbImage) -> RgbImage {
 /// other step of the tracker (appearance, search, refinement, judging, learning).
 #[test]
 fn twice_the_pixels_tracked_halved_are_the_same_tracks() {
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Occlude,
-        width: 320,
-        height: 180,
-        seed: 2,
-        frames: Some(40),
-    });
+    let clip = synth_clip(Scenario::Occlude, 320, 180, 2, Some(40));
     let small = parse_seeds(&clip.seeds_toml(), Path::new("joints.toml")).unwrap();
     // The same seed file at twice the size: centres at 2x + 0.5, sides doubled.
     let mut large = small.clone();
@@ -88,22 +83,15 @@ fn twice_the_pixels_tracked_halved_are_the_same_tracks() {
 #[cfg(feature = "ffmpeg")]
 #[test]
 fn a_run_tracked_halved_resumes_and_takes_corrections() {
+    use crate::common::write_synth;
     use mocap2d::app::{resume, track, ResumeOptions, TrackOptions};
     use mocap2d::progress::NoProgress;
     use mocap2d::run::segments::file_path;
     use mocap2d::run::tracks::read_tracks;
     use mocap2d::seed::{read_seeds, to_toml};
-    use mocap2d::synth::write_clip;
 
     let dir = tempfile::tempdir().unwrap();
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Walk,
-        width: 320,
-        height: 180,
-        seed: 3,
-        frames: Some(60),
-    });
-    write_clip(&clip, dir.path()).unwrap();
+    let clip = write_synth(dir.path(), Scenario::Walk, 320, 180, 3, Some(60));
     let run = dir.path().join("run");
     // 11-px rectangles: with 5 px they are tracked halved.
     let params = TrackParams {

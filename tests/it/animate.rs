@@ -3,6 +3,7 @@
 //! clip, no inverted triangle over a walk, the cartoon filter on a step, deterministic renders,
 //! and the exit code and message of every target-file error.
 
+use crate::common::{self, bin, characters, run as mocap2d, s, synth_clip};
 use mocap2d::app::{self, RenderOptions, Renderer};
 use mocap2d::character::read_character;
 use mocap2d::deform::DeformOptions;
@@ -11,49 +12,17 @@ use mocap2d::progress::NoProgress;
 use mocap2d::render::{coverage, Texture};
 use mocap2d::retarget::files::read_pose;
 use mocap2d::retarget::{Cartoon, RetargetOptions};
-use mocap2d::synth::{self, Scenario, SynthClip, SynthOptions};
+use mocap2d::synth::{Scenario, SynthClip};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn characters(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("configs/characters")
-        .join(name)
-}
 
 fn clip(scenario: Scenario, w: u32, h: u32, frames: u32) -> SynthClip {
-    synth::render(&SynthOptions {
-        scenario,
-        width: w,
-        height: h,
-        seed: 1,
-        frames: Some(frames),
-    })
+    synth_clip(scenario, w, h, 1, Some(frames))
 }
 
 /// A run folder whose tracks are `clip`'s ground truth: tracks.csv, seeds.toml, run.toml.
 fn run_from_gt(dir: &Path, clip: &SynthClip) -> PathBuf {
-    let run = dir.join("gt.mocap");
-    std::fs::create_dir_all(&run).unwrap();
-    let mut t = String::from("frame,joint,x,y,angle,score,status\n");
-    for (f, joints) in clip.gt.iter().enumerate() {
-        for (name, (x, y)) in clip.joint_names.iter().zip(joints) {
-            let _ = writeln!(t, "{f},{name},{x:.3},{y:.3},0.0000,1.000,ok");
-        }
-    }
-    std::fs::write(run.join("tracks.csv"), t).unwrap();
-    std::fs::write(run.join("seeds.toml"), clip.seeds_toml()).unwrap();
-    std::fs::write(
-        run.join("run.toml"),
-        format!(
-            "width = {}\nheight = {}\nfps = 30.0\n",
-            clip.width(),
-            clip.height()
-        ),
-    )
-    .unwrap();
-    run
+    common::run_from_gt(dir, clip, 0, |_, _| 1.0)
 }
 
 /// The joints of every frame of `RUN/retarget/pose.csv`, as points.
@@ -67,17 +36,6 @@ fn poses(run: &Path, names: &[String]) -> Vec<Vec<Point>> {
                 .collect()
         })
         .collect()
-}
-
-fn mocap2d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 #[test]
@@ -267,7 +225,7 @@ fn renders_are_deterministic_whatever_the_thread_count() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let render = |tag: &str, threads: &str| -> (Vec<u8>, Vec<Vec<u8>>) {
         let (out, frames) = (d.path().join(format!("{tag}.mp4")), d.path().join(tag));
-        let o = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        let o = bin()
             .args(["render", s(&run), "--target", s(&target), "--out", s(&out)])
             .args(["--frames-dir", s(&frames)])
             .env("RAYON_NUM_THREADS", threads)
@@ -383,7 +341,7 @@ fn render_with_another_target_than_retarget_is_refused() {
 #[test]
 #[cfg(feature = "ffmpeg")]
 fn the_dance_with_coco_names_retargets_and_renders_onto_every_sample_character() {
-    let dance = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/clips/dance");
+    let dance = common::shared("clips/dance");
     if !dance.join("clip.mp4").exists() {
         eprintln!(
             "note: {} is absent; the COCO-names retarget was not run",

@@ -172,16 +172,15 @@ mod video {
     #[test]
     fn ffmpeg_log_lines_do_not_reach_the_user() {
         let dir = tempfile::tempdir().unwrap();
-        let seeds = Path::new(env!("CARGO_MANIFEST_DIR")).join("clips/walk/joints.toml");
+        let seeds = crate::common::walk("joints.toml");
         let bogus = dir.path().join("notes.mp4");
         std::fs::write(&bogus, "this is not a video\n").unwrap();
         // The start of a real clip: its index (moov) is at the end, so it is cut off.
         let cut = dir.path().join("cut.mp4");
-        let clip = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("clips/walk/clip.mp4"))
-            .unwrap();
+        let clip = std::fs::read(crate::common::walk("clip.mp4")).unwrap();
         std::fs::write(&cut, &clip[..clip.len() / 2]).unwrap();
         for path in [&bogus, &cut] {
-            let out = std::process::Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+            let out = crate::common::bin()
                 .args(["track", path.to_str().unwrap(), "--seeds"])
                 .arg(&seeds)
                 .arg("--quiet")

@@ -3,11 +3,11 @@
 //! tracked from, and the user errors exit with 2.
 #![cfg(feature = "ffmpeg")]
 
+use crate::common::{assert_exit, run_in as run, write_synth};
 use mocap2d::run::TrackRow;
 use mocap2d::seed::{read_seeds, to_toml};
-use mocap2d::synth::{render, write_clip, Scenario, SynthOptions};
+use mocap2d::synth::Scenario;
 use std::path::Path;
-use std::process::{Command, Output};
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -15,32 +15,8 @@ const H: u32 = 240;
 /// Renders `scenario` (`frames` frames, 320×240) into a temp dir: clip.mp4, joints.toml, ….
 fn synth(scenario: Scenario, frames: u32) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    let clip = render(&SynthOptions {
-        scenario,
-        width: W,
-        height: H,
-        seed: 2,
-        frames: Some(frames),
-    });
-    write_clip(&clip, dir.path()).unwrap();
+    write_synth(dir.path(), scenario, W, H, 2, Some(frames));
     dir
-}
-
-fn run(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .unwrap()
-}
-
-fn assert_exit(o: &Output, code: i32) {
-    assert_eq!(
-        o.status.code(),
-        Some(code),
-        "stderr:\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
 }
 
 fn png_size(p: &Path) -> (u32, u32) {

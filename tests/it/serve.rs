@@ -4,9 +4,10 @@
 //! and bad requests get 4xx without touching any file.
 #![cfg(feature = "ffmpeg")]
 
+use crate::common::write_synth;
 use mocap2d::progress::NoProgress;
 use mocap2d::seed::{read_seeds, to_toml};
-use mocap2d::synth::{render, write_clip, Scenario, SynthOptions};
+use mocap2d::synth::Scenario;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::{Path, PathBuf};
@@ -16,14 +17,7 @@ use std::sync::Arc;
 /// A synth walk (320×240, `frames` frames) tracked into `r.mocap` in segments of `segment_len`.
 fn tracked_walk(frames: u32, segment_len: u64) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Walk,
-        width: 320,
-        height: 240,
-        seed: 4,
-        frames: Some(frames),
-    });
-    write_clip(&clip, dir.path()).unwrap();
+    write_synth(dir.path(), Scenario::Walk, 320, 240, 4, Some(frames));
     let mut opts = mocap2d::app::TrackOptions::new(
         dir.path().join("clip.mp4"),
         dir.path().join("joints.toml"),
@@ -476,7 +470,7 @@ fn a_save_while_resume_runs_is_refused_and_the_correction_then_survives() {
     let file = run.join("segments/002.toml");
     let tool_written = std::fs::read(&file).unwrap();
     let body = save_body(&srv, "002", 9.0);
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+    let mut child = crate::common::bin()
         .args(["resume", run.to_str().unwrap(), "--segment", "0", "-q"])
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
@@ -522,7 +516,7 @@ fn a_save_while_resume_runs_is_refused_and_the_correction_then_survives() {
     );
     let corrected = std::fs::read(&file).unwrap();
     assert_ne!(corrected, tool_written);
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+    let o = crate::common::bin()
         .args(["resume", run.to_str().unwrap(), "-q"])
         .output()
         .unwrap();

@@ -7,27 +7,18 @@
 //! `scripts/setup` installs there (`npm ci`). Without them the tests fail, saying how to install
 //! them; `MOCAP2D_SKIP_JS=1` skips them instead, loudly.
 
+use crate::common::{self, root, run as mocap2d, s, synth_clip};
 use mocap2d::character::read_character;
 use mocap2d::export::{self, Animation};
 use mocap2d::retarget::files::{read_manifest, read_pose, read_skeleton};
-use mocap2d::synth::{self, Scenario, SynthClip, SynthOptions};
+use mocap2d::synth::{self, Scenario, SynthClip};
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 fn clip(scenario: Scenario, frames: u32) -> SynthClip {
-    synth::render(&SynthOptions {
-        scenario,
-        width: 320,
-        height: 240,
-        seed: 1,
-        frames: Some(frames),
-    })
+    synth_clip(scenario, 320, 240, 1, Some(frames))
 }
 
 /// A run folder whose tracks are `clip`'s ground truth: tracks.csv, seeds.toml, run.toml.
@@ -37,34 +28,7 @@ fn run_from_gt(dir: &Path, clip: &SynthClip) -> PathBuf {
 
 /// [`run_from_gt`] seeded on frame `first`: the tracks start there.
 fn run_from_gt_from(dir: &Path, clip: &SynthClip, first: usize) -> PathBuf {
-    let run = dir.join("gt.mocap");
-    std::fs::create_dir_all(&run).unwrap();
-    let mut t = String::from("frame,joint,x,y,angle,score,status\n");
-    for (f, joints) in clip.gt.iter().enumerate().skip(first) {
-        for (j, (name, (x, y))) in clip.joint_names.iter().zip(joints).enumerate() {
-            let score = 0.5 + 0.01 * ((f + j) % 50) as f32;
-            let _ = writeln!(t, "{f},{name},{x:.3},{y:.3},0.0000,{score:.3},ok");
-        }
-    }
-    std::fs::write(run.join("tracks.csv"), t).unwrap();
-    let seeds = clip
-        .seeds_toml()
-        .replace("\nframe = 0\n", &format!("\nframe = {first}\n"));
-    std::fs::write(run.join("seeds.toml"), seeds).unwrap();
-    let (w, h) = (clip.width(), clip.height());
-    std::fs::write(
-        run.join("run.toml"),
-        format!("width = {w}\nheight = {h}\nfps = 30.0\n"),
-    )
-    .unwrap();
-    run
-}
-
-fn mocap2d(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-        .args(args)
-        .output()
-        .unwrap()
+    common::run_from_gt(dir, clip, first, |f, j| 0.5 + 0.01 * ((f + j) % 50) as f32)
 }
 
 fn ok(o: &Output) {
@@ -74,10 +38,6 @@ fn ok(o: &Output) {
         o.status.code(),
         String::from_utf8_lossy(&o.stderr)
     );
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// The retargeted animation of `run`, as the exporters read it.

@@ -2,14 +2,13 @@
 //! or full disk (a small tmpfs, mounted when the test may: root in a container that allows it),
 //! and a stale temp file from a crash. Every case gives a clear error (exit 2 when the user can
 //! fix it, 1 otherwise) and leaves no half-written file and no temp file. Ctrl-C is in
-//! `tests/signals.rs`.
+//! `tests/it/signals.rs`.
 #![cfg(feature = "ffmpeg")]
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// `track` of the sample clip into `out`, then `retarget` onto the robot.
 fn tracked_and_retargeted(out: &Path) {
@@ -145,7 +144,7 @@ fn missing_or_edited_run_files_are_named() {
 
 /// `track --replace` into the run folder of another clip replaces every file: `run.toml` then
 /// names the new clip and the tracks are the new clip's (the old retarget is refused as stale).
-/// Without `--replace` it is refused: `tests/run_safety.rs`.
+/// Without `--replace` it is refused: `tests/it/run_safety.rs`.
 #[test]
 fn track_into_the_folder_of_another_clip_replaces_it_whole() {
     let dir = tempfile::tempdir().unwrap();

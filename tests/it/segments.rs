@@ -6,14 +6,15 @@
 //! and a run folder refuses another clip.
 #![cfg(feature = "ffmpeg")]
 
+use crate::common::{bin, run as run_bin, s, write_synth};
 use mocap2d::app::{resume, track, ResumeOptions, TrackOptions, TrackSummary};
 use mocap2d::progress::NoProgress;
 use mocap2d::run::segments::{file_path, Plan};
 use mocap2d::run::tracks::read_tracks;
 use mocap2d::seed::{read_seeds, to_toml};
-use mocap2d::synth::{render, write_clip, Scenario, SynthOptions};
+use mocap2d::synth::Scenario;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// A rendered synth clip on disk (clip.mp4, joints.toml, gt.csv) with its ground truth.
 struct Synth {
@@ -36,14 +37,7 @@ impl Synth {
         seed: u64,
     ) -> Synth {
         let dir = tempfile::tempdir().unwrap();
-        let clip = render(&SynthOptions {
-            scenario,
-            width,
-            height,
-            seed,
-            frames,
-        });
-        write_clip(&clip, dir.path()).unwrap();
+        let clip = write_synth(dir.path(), scenario, width, height, seed, frames);
         Synth {
             dir,
             gt: clip.gt,
@@ -335,7 +329,7 @@ fn correcting_only_the_worst_segment_makes_the_rest_better() {
 
 /// The same on `long` at 640×360 in segments of 150.
 #[test]
-#[ignore = "long clip: run with cargo test --release --test segments -- --ignored"]
+#[ignore = "long clip: run with cargo test --release --test it segments:: -- --ignored"]
 fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let run = s.path("run");
@@ -351,7 +345,7 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
 
 /// The acceptance test: 900 frames at 640×360, segments of 150.
 #[test]
-#[ignore = "long clip: run with cargo test --release --test segments -- --ignored"]
+#[ignore = "long clip: run with cargo test --release --test it segments:: -- --ignored"]
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);
@@ -369,18 +363,6 @@ fn corrections_of_flagged_segments_lift_the_long_clip() {
     assert!(after >= 0.98, "PCK@5 {before} -> {after}");
 }
 
-/// Runs the binary with `args`, waiting for it.
-fn run_bin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn assert_exit(o: &Output, code: i32, needles: &[&str]) {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(code), "stderr:\n{err}");
@@ -392,7 +374,7 @@ fn assert_exit(o: &Output, code: i32, needles: &[&str]) {
 /// Starts the binary with `args` and kills it (SIGKILL) once `file` exists. Returns whether
 /// it was still running then.
 fn kill_when(args: &[&str], file: &Path) -> bool {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+    let mut child = bin()
         .args(args)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())

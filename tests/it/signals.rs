@@ -1,7 +1,7 @@
 //! Ctrl-C (SIGINT) during `track`, `render` and `resume`: each stops within seconds with exit
 //! code 130 and the "interrupted" message, leaves no temp file and no half-written file, and an
 //! interrupted `track` or `resume` keeps a consistent checkpoint that `resume` finishes to the
-//! very bytes of an uninterrupted run. (`batch` is in `tests/batch.rs`.)
+//! very bytes of an uninterrupted run. (`batch` is in `tests/it/batch.rs`.)
 #![cfg(feature = "ffmpeg")]
 
 use mocap2d::run::Manifest;
@@ -9,8 +9,8 @@ use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Duration;
 
-mod common;
-use common::*;
+use crate::common;
+use crate::common::*;
 
 /// The sample clip looped `times` times (remuxed, not re-encoded) into `path`.
 fn long_clip(path: &Path, times: u32) {
@@ -121,29 +121,6 @@ fn assert_checkpoint(run: &Path) {
     let next = run.join(format!("segments/{:03}.toml", m.tracked_segments));
     assert!(next.is_file(), "{} missing", next.display());
     assert!(!run.join("tracks.csv").exists());
-}
-
-/// Every file of a folder, sub-folders included (relative path, bytes).
-fn folder_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    files(dir)
-        .into_iter()
-        .map(|p| {
-            let rel = p.strip_prefix(dir).unwrap().display().to_string();
-            (rel, std::fs::read(&p).unwrap())
-        })
-        .collect()
-}
-
-fn assert_same_folders(a: &Path, b: &Path) {
-    let (x, y) = (folder_bytes(a), folder_bytes(b));
-    assert_eq!(
-        x.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        y.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        "the same files"
-    );
-    for ((name, x), (_, y)) in x.iter().zip(&y) {
-        assert!(x == y, "{name} differs from the uninterrupted run's");
-    }
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! Seed and character files at their worst: non-UTF-8 bytes, NaN and infinite numbers, a 10 MB
 //! file, 10 000 joints, and the fuzzers' findings (tests/fuzz_regressions/). Each gives a result
 //! or one clear user error, quickly, never a panic, a hang or a stack overflow. (Unknown parents,
-//! cycles, duplicate names and rectangles outside the frame are in tests/seeds.rs.)
+//! cycles, duplicate names and rectangles outside the frame are in tests/it/seeds.rs.)
 
 use mocap2d::character::{parse_character, read_character};
 use mocap2d::seed::{parse_seeds, read_seeds};
@@ -248,7 +248,7 @@ fn character_with_ten_thousand_joints_parses_quickly() {
 /// tracks-, dlc_csv-, manifest-.
 #[test]
 fn fuzz_findings_give_errors_not_panics() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
+    let dir = crate::common::root().join("tests/fuzz_regressions");
     let Ok(entries) = std::fs::read_dir(&dir) else {
         return;
     };

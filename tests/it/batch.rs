@@ -4,10 +4,9 @@
 //! stopping the batch cleanly for a re-run to finish.
 #![cfg(feature = "ffmpeg")]
 
-mod common;
-
+use crate::common::{self, assert_exit, bin, folder_bytes as files, stdout, temp_files};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::Duration;
 
 /// A temp dir holding `shots/cN.mp4` with `shots/cN.toml` seed files.
@@ -55,7 +54,7 @@ impl Shots {
 
     /// Runs `mocap2d ARGS -q` in the temp dir.
     fn run(&self, args: &[&str]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        bin()
             .args(args)
             .arg("-q")
             .current_dir(self.tmp.path())
@@ -71,7 +70,7 @@ impl Shots {
     /// (a file it writes appeared), sends SIGINT, and returns its output and how long it took
     /// to exit after the signal. `None` if it finished first.
     fn interrupt(&self, extra: &[&str], started: impl Fn() -> bool) -> Option<(Output, Duration)> {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_mocap2d"));
+        let mut cmd = bin();
         cmd.args(batch_args(extra))
             .arg("-q")
             .current_dir(self.tmp.path());
@@ -104,20 +103,6 @@ fn batch_args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
     args
 }
 
-fn assert_exit(o: &Output, code: i32) {
-    assert_eq!(
-        o.status.code(),
-        Some(code),
-        "exit code; stdout:\n{}\nstderr:\n{}",
-        stdout(o),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
 /// Error lines (`mocap2d: ...`) on stderr.
 fn error_lines(o: &Output) -> Vec<String> {
     String::from_utf8_lossy(&o.stderr)
@@ -135,25 +120,6 @@ fn status(o: &Output, clip: &str) -> String {
         .find(|l| l.starts_with(clip))
         .unwrap_or_else(|| panic!("no row for {clip} in\n{out}"));
     row.split_whitespace().last().unwrap().to_string()
-}
-
-/// Every file of a run folder (sub-folders included), by relative name.
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, Vec<u8>)>) {
-        for e in std::fs::read_dir(dir).unwrap() {
-            let p = e.unwrap().path();
-            if p.is_dir() {
-                walk(root, &p, out);
-            } else {
-                let name = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
-                out.push((name, std::fs::read(&p).unwrap()));
-            }
-        }
-    }
-    let mut v = Vec::new();
-    walk(dir, dir, &mut v);
-    v.sort();
-    v
 }
 
 #[test]
@@ -311,15 +277,6 @@ fn batch_wide_mistakes_stop_before_any_work() {
 fn checkpoint(run: &Path) -> (bool, u64) {
     let m = mocap2d::run::Manifest::read(&run.join("run.toml")).unwrap();
     (m.complete, m.tracked_segments)
-}
-
-/// Temp files (`*.tmp`) anywhere under `dir`.
-fn temp_files(dir: &Path) -> Vec<String> {
-    files(dir)
-        .into_iter()
-        .map(|f| f.0)
-        .filter(|n| n.ends_with(".tmp"))
-        .collect()
 }
 
 /// After a Ctrl-C: every run folder under `out` is finished (the same files as `whole`'s),

@@ -7,19 +7,18 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// A synth walk of `frames` frames (320×240) in `dir`: (clip, seed file).
 fn synth_walk(dir: &Path, frames: u32) -> (PathBuf, PathBuf) {
-    let clip = mocap2d::synth::render(&mocap2d::synth::SynthOptions {
-        scenario: mocap2d::synth::Scenario::Walk,
-        width: 320,
-        height: 240,
-        seed: 2,
-        frames: Some(frames),
-    });
-    mocap2d::synth::write_clip(&clip, dir).unwrap();
+    write_synth(
+        dir,
+        mocap2d::synth::Scenario::Walk,
+        320,
+        240,
+        2,
+        Some(frames),
+    );
     (dir.join("clip.mp4"), dir.join("joints.toml"))
 }
 
@@ -81,29 +80,6 @@ fn second_is_refused(mut first: Child, run: &Path, what: &str, second: &[&str]) 
     out
 }
 
-/// Every file under `run` (relative path, bytes).
-fn tree(run: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    files(run)
-        .into_iter()
-        .map(|p| {
-            let b = std::fs::read(&p).unwrap();
-            (p.strip_prefix(run).unwrap().to_owned(), b)
-        })
-        .collect()
-}
-
-fn assert_same_tree(a: &Path, b: &Path) {
-    let (x, y) = (tree(a), tree(b));
-    assert_eq!(
-        x.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        y.iter().map(|f| &f.0).collect::<Vec<_>>(),
-        "the same files"
-    );
-    for ((name, p), (_, q)) in x.iter().zip(&y) {
-        assert!(p == q, "{} differs from the single run's", name.display());
-    }
-}
-
 #[test]
 fn a_second_track_into_the_same_folder_is_refused_and_the_first_ends_as_if_alone() {
     let dir = tempfile::tempdir().unwrap();
@@ -115,7 +91,7 @@ fn a_second_track_into_the_same_folder_is_refused_and_the_first_ends_as_if_alone
     let both = dir.path().join("both.mocap");
     let first = spawn(&track_args(&clip, &seeds, &both));
     second_is_refused(first, &both, "track", &track_args(&clip, &seeds, &both));
-    assert_same_tree(&alone, &both);
+    assert_same_folders(&alone, &both);
 }
 
 #[test]
@@ -142,7 +118,7 @@ fn a_second_resume_of_the_same_folder_is_refused_and_the_first_ends_as_if_alone(
     let first = spawn(&b);
     second_is_refused(first, &both, "resume", &b);
     assert!(both.join("history/001-tracks.csv").is_file());
-    assert_same_tree(&alone, &both);
+    assert_same_folders(&alone, &both);
 }
 
 /// A writer killed with SIGKILL leaves its `.lock` file, but the operating system released the

@@ -9,8 +9,7 @@ use std::os::unix::ffi::OsStringExt;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// `dir/NAME` with a byte 0xff in NAME (not UTF-8).
 fn not_utf8(dir: &Path, before: &str, after: &str) -> PathBuf {
@@ -149,14 +148,14 @@ fn a_batch_resumes_a_run_with_an_unapplied_edit_instead_of_skipping_it() {
     let dir = tempfile::tempdir().unwrap();
     let shots = dir.path().join("shots");
     std::fs::create_dir(&shots).unwrap();
-    let clip = mocap2d::synth::render(&mocap2d::synth::SynthOptions {
-        scenario: mocap2d::synth::Scenario::Walk,
-        width: 160,
-        height: 120,
-        seed: 1,
-        frames: Some(30),
-    });
-    mocap2d::synth::write_clip(&clip, dir.path()).unwrap();
+    write_synth(
+        dir.path(),
+        mocap2d::synth::Scenario::Walk,
+        160,
+        120,
+        1,
+        Some(30),
+    );
     std::fs::rename(dir.path().join("clip.mp4"), shots.join("c1.mp4")).unwrap();
     std::fs::rename(dir.path().join("joints.toml"), shots.join("c1.toml")).unwrap();
     let batch = || {

@@ -4,13 +4,14 @@
 //! measured figures (in the comments), so a regression fails; the targets are noted
 //! where the tracker does not reach them yet.
 
+use crate::common::{synth_clip, write_synth};
 use mocap2d::app::{eval, resume, track, ResumeOptions, TrackOptions};
 use mocap2d::eval::read_gt;
 use mocap2d::progress::NoProgress;
 use mocap2d::run::segments::file_path;
 use mocap2d::run::tracks::read_tracks;
 use mocap2d::seed::{read_seeds, to_toml};
-use mocap2d::synth::{render, write_clip, Scenario, SynthOptions};
+use mocap2d::synth::Scenario;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -29,14 +30,7 @@ fn synth_run_with(
     seed: u64,
 ) -> ((f32, f32), tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
-    let clip = render(&SynthOptions {
-        scenario,
-        width: 640,
-        height: 360,
-        seed,
-        frames,
-    });
-    write_clip(&clip, dir.path()).unwrap();
+    write_synth(dir.path(), scenario, 640, 360, seed, frames);
     let opts = TrackOptions {
         out: Some(dir.path().join("run")),
         segment_len,
@@ -159,7 +153,7 @@ fn noise_flicker_and_compression_are_tracked() {
 
 /// 900 frames of mixed actions with three turns: slow in a debug build, so release-only.
 #[test]
-#[ignore = "long clip: run with cargo test --release -- --ignored"]
+#[ignore = "long clip: run with cargo test --release --test it accuracy:: -- --ignored"]
 fn long_clip_with_turns_is_tracked() {
     // Default segments of 150: tracking goes on through uncorrected segment files (one
     // segment: 80.5 %).
@@ -211,7 +205,7 @@ fn far_misses_are_flagged() {
 /// is reported; the bound is what the tracker reaches today.
 #[test]
 fn flies_clip_runs_and_reports_its_error() {
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/clips/flies");
+    let shared = crate::common::shared("clips/flies");
     if !shared.join("clip.mp4").exists() {
         eprintln!(
             "note: {} is absent; the flies regression was not run",
@@ -281,13 +275,7 @@ fn flies_clip_runs_and_reports_its_error() {
 fn walk_with_jump_pck5(params: mocap2d::track::TrackParams, from: usize) -> f32 {
     use mocap2d::background::Background;
     use mocap2d::track::Tracker;
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Walk,
-        width: 640,
-        height: 360,
-        seed: 1,
-        frames: None,
-    });
+    let clip = synth_clip(Scenario::Walk, 640, 360, 1, None);
     let bgi = &clip.background;
     let dx: i64 = if clip.gt[50][0].0 < 320.0 { 160 } else { -160 };
     let mut frames = clip.frames.clone();
@@ -356,13 +344,7 @@ fn a_body_lost_for_a_while_is_found_again() {
 fn a_lost_body_is_not_found_again_on_its_look_alike() {
     use mocap2d::background::Background;
     use mocap2d::track::Tracker;
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Walk,
-        width: 640,
-        height: 360,
-        seed: 1,
-        frames: Some(64),
-    });
+    let clip = synth_clip(Scenario::Walk, 640, 360, 1, Some(64));
     let bgi = &clip.background;
     let xs = clip.gt.iter().flatten().map(|g| g.0);
     let (lo, hi) = xs.fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x), b.max(x)));
@@ -443,14 +425,7 @@ fn a_lost_body_is_not_found_again_on_its_look_alike() {
 #[test]
 fn tracks_do_not_depend_on_the_thread_count() {
     let dir = tempfile::tempdir().unwrap();
-    let clip = render(&SynthOptions {
-        scenario: Scenario::Occlude,
-        width: 320,
-        height: 240,
-        seed: 1,
-        frames: Some(60),
-    });
-    write_clip(&clip, dir.path()).unwrap();
+    write_synth(dir.path(), Scenario::Occlude, 320, 240, 1, Some(60));
     let run = |threads: usize| {
         let out = dir.path().join(format!("run{threads}"));
         let opts = TrackOptions {

@@ -1,7 +1,7 @@
 //! Seed files through the library: valid files parse, and each kind of mistake gives one
 //! `Error::Seed` naming the line, joint and field.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use mocap2d::geom::JointBox;
 use mocap2d::seed::{parse_seeds, read_seeds, to_toml, SeedJoint, Seeds};
@@ -50,10 +50,6 @@ w = 15
 h = 17
 parent = "hip"
 "#;
-
-fn manifest_path(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
-}
 
 #[test]
 fn valid_file_parses_with_lines_boxes_and_skeleton() {
@@ -122,7 +118,7 @@ fn optional_segment_keys_are_read() {
 
 #[test]
 fn flies_seed_file_parses() {
-    let path = manifest_path("../shared/clips/flies/joints.toml");
+    let path = crate::common::shared("clips/flies/joints.toml");
     if !path.exists() {
         eprintln!("note: {} is absent; skipping", path.display());
         return;

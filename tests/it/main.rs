@@ -1,0 +1,29 @@
+//! The integration tests, one test binary: `cargo test --test it` runs them all, and
+//! `cargo test --test it segments::` (a module path) or `cargo test --test it resume` (any part
+//! of a test's name) a few. Each module was its own binary (`tests/NAME.rs`) before; they are
+//! one crate now so that the library and the helpers in [`common`] are linked once.
+//!
+//! Modules that need the `ffmpeg` feature say so with `#![cfg(feature = "ffmpeg")]` at their top.
+
+mod common;
+
+mod accuracy;
+mod animate;
+mod batch;
+mod cli;
+mod decode;
+mod eval;
+mod export;
+mod hardening;
+mod hardening_files;
+mod hardening_run;
+mod keyframes;
+mod review;
+mod run_lock;
+mod run_safety;
+mod scale;
+mod seeds;
+mod segments;
+mod serve;
+mod signals;
+mod synth;
