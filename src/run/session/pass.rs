@@ -1,0 +1,112 @@
+//! One tracking pass over a segment, where its tracker's appearance is built, and the frames
+//! as they arrive (with progress and interruption).
+
+use super::Key;
+use crate::error::{Error, Result};
+use crate::geom::Point;
+use crate::progress::Progress;
+use crate::track::{gapfill::GapFiller, JointEstimate, Tracker};
+use image::RgbImage;
+
+/// Where a segment tracker's appearance model is built.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Appearance<'a> {
+    /// On the segment file's own frame, from its rectangles.
+    Here,
+    /// On the seed frame, from segment 0's file; the tracker then restarts at the rectangles.
+    SeedFrame,
+    /// As `SeedFrame`, then given what the previous segment's tracker learnt
+    /// ([`Tracker::state`]), for segment `.0`.
+    Learnt(u64, &'a [u8]),
+    /// As `Learnt`, then moved to the segment file's rectangles (a correction), the motion
+    /// filters keeping their rates.
+    LearntMoved(u64, &'a [u8]),
+}
+
+/// One tracking pass: a tracker, its gap filler, what it has output, and the angle to add to
+/// each joint's (the tracker measures from its own seed pose).
+pub(super) struct Pass {
+    tracker: Tracker,
+    filler: GapFiller,
+    offsets: Vec<f32>,
+    out: Vec<(u64, Vec<JointEstimate>)>,
+}
+
+impl Pass {
+    /// Moves the tracker onto a key's joints (the others stay where it has them), its motion
+    /// filters keeping their rates, as for a corrected segment file.
+    pub(super) fn move_to(&mut self, key: &Key) {
+        let centres: Vec<Point> = self
+            .tracker
+            .current()
+            .iter()
+            .zip(&key.joints)
+            .map(|(e, k)| k.unwrap_or(e.pos))
+            .collect();
+        self.tracker.restart_moving(&centres);
+    }
+
+    /// Starts a pass of `tracker`, just built or restarted on frame `frame`, where the joints'
+    /// angles from the run's seed pose are `angles`.
+    pub(super) fn new(tracker: Tracker, angles: &[f32], frame: u64) -> Pass {
+        let current = tracker.current();
+        let offsets = angles
+            .iter()
+            .zip(&current)
+            .map(|(a, e)| a - e.angle_rad)
+            .collect();
+        let mut filler = tracker.gap_filler();
+        let out = filler.push(frame, current);
+        Pass {
+            tracker,
+            filler,
+            offsets,
+            out,
+        }
+    }
+
+    /// Tracks frame `idx`.
+    pub(super) fn step(&mut self, idx: u64, frame: &RgbImage) {
+        let est = self.tracker.step(frame);
+        self.out.extend(self.filler.push(idx, est));
+    }
+
+    /// Every frame's estimates, in the order they were tracked, angles from the seed pose.
+    pub(super) fn finish(self) -> Vec<(u64, Vec<JointEstimate>)> {
+        self.finish_keep().0
+    }
+
+    /// [`Pass::finish`], giving the tracker back too.
+    pub(super) fn finish_keep(mut self) -> (Vec<(u64, Vec<JointEstimate>)>, Tracker) {
+        self.out.extend(self.filler.finish());
+        for (_, est) in &mut self.out {
+            for (e, off) in est.iter_mut().zip(&self.offsets) {
+                e.angle_rad += off;
+            }
+        }
+        (self.out, self.tracker)
+    }
+}
+
+/// Frames, one at a time, with progress and interruption.
+pub(super) struct Frames<'p, I> {
+    pub(super) inner: I,
+    pub(super) progress: &'p dyn Progress,
+    pub(super) count: u64,
+}
+
+impl<I: Iterator<Item = Result<(u64, RgbImage)>>> Frames<'_, I> {
+    pub(super) fn next(&mut self) -> Result<Option<(u64, RgbImage)>> {
+        match self.inner.next() {
+            None => Ok(None),
+            Some(item) => {
+                let (idx, frame) = item?;
+                self.count = idx + 1;
+                if !self.progress.advance(1) {
+                    return Err(Error::Interrupted);
+                }
+                Ok(Some((idx, frame)))
+            }
+        }
+    }
+}
