@@ -15,29 +15,17 @@
 //! says it saw the joint (somewhere else), neither is trusted: the joint is marked `occluded`
 //! on that frame, so that the segment's gap filling interpolates over it from the frames around
 //! (passes that start from two corrections and see a joint in two places on the same frame
-//! mostly mean that it is covered and one of them took another limb for it). Ten corrected
-//! cases (`long` seeds 1–5 and the 240-frame clip seeds 1–5, every segment file set to the
-//! ground truth): mean PCK@5 96.29 → 96.46 %, nine better or equal; flies with the report's
-//! five files corrected 83.0 → 83.1 %. Taking a lone `low` winner as hidden whenever the other
-//! passes did not see the joint at all cost `long` up to 1 point: a `low` measurement is right
-//! more often than the interpolation.
-//!
-//! Measured on synth clips with ground-truth keyframes at both ends of every segment (PCK@5
-//! over the frames between, `long` at 640×360 in segments of 150; a 240-frame mixed clip at
-//! 320×180 in segments of 40): forward and backward passes picked by score alone 89.5 % and
-//! 90.6 %; the four passes picked by score 92.1 % and 91.8 %; by support as here 92.5 % and
-//! 94.0 %; an oracle picking the best of the four every time, 96.3 % and 98.0 %. Weighting the
-//! passes by nearness to their keyframe did not help on `long` (87.4 % for two passes).
+//! mostly mean that it is covered and one of them took another limb for it). A lone `low`
+//! winner that the other passes did not see at all stands: a `low` measurement is right more
+//! often than the interpolation. The measurements behind these rules are in docs/NOTES.md
+//! ("Blending passes").
 
 use crate::run::segments::turns_near;
 use crate::track::{JointEstimate, Status};
 
-/// Passes closer than this (px) agree. Ten corrected cases (`long` seeds 1–5, the 240-frame
-/// clip seeds 1–5, every file set to the ground truth), mean PCK@5 by radius: 3 px 96.46 %,
-/// 6 px 96.55, 8 px 96.72, 10 px 96.67, 12 px 96.61, 16 px 96.38; flies with the report's five
-/// files corrected 83.1 / 83.3 / 83.5 / 83.4 / 83.2 % (3 to 12 px). Two passes that started
-/// from different keyframes and land a few pixels apart have mostly found the same limb, each
-/// a little off; the disputed rule below is for passes that found different ones.
+/// Passes closer than this (px) agree: two passes that started from different keyframes and
+/// land a few pixels apart have mostly found the same limb, each a little off; the disputed
+/// rule above is for passes that found different ones.
 pub const AGREE_PX: f32 = 8.0;
 
 /// A pass's weight for an estimate.

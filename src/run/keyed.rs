@@ -220,9 +220,8 @@ pub fn score(sigma_px: f32) -> f32 {
     10.0 / (10.0 + sigma_px)
 }
 
-/// A solved joint is `ok` while its doubt stays under 10 px, else `low` (worth a look). On the
-/// dance clip with keys every 50 frames, 8.3 % of the `ok` joint-frames were more than 20 px
-/// off (docs/benchmarks.md).
+/// A solved joint is `ok` while its doubt stays under 10 px, else `low` (worth a look). How
+/// often `ok` is wrong on the dance is measured with `scripts/ok-precision` (docs/benchmarks.md).
 pub fn status(sigma_px: f32) -> Status {
     if sigma_px < 10.0 {
         Status::Ok

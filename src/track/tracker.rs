@@ -24,10 +24,9 @@ pub(super) struct JointState {
     pub last: JointEstimate,
 }
 
-/// See [`Tracker::adopt_hidden_from`]. Measured on `long` with ground-truth corrections of
-/// every segment file (640×360 in segments of 150, seeds 1–3; 320×180, 240 frames in segments
-/// of 40, seeds 1–2), mean PCK@5: 94.1 % without adopting, 95.5 % at 0.05, 95.8 % at 0.1,
-/// 95.9 % at 0.2 and 0.3, 95.8 % at 0.45.
+/// See [`Tracker::adopt_hidden_from`]: the share of a bone's samples that must fit on a
+/// keyframe for its appearance to be learnt there rather than kept from the seed frame (the
+/// middle of a broad plateau of values measured on corrected synth clips; docs/NOTES.md).
 pub const HIDDEN_AT_KEYFRAME: f32 = 0.2;
 
 /// Tracks all joints of a seed file frame by frame.
@@ -112,9 +111,8 @@ impl Tracker {
         let seed_frame: &RgbImage = &work.image(seed_frame);
         let background = background.map(|b| work.background(b));
         // The levels that count the frame's resolution stay where they are in the frame: the
-        // halved frame is already the frame's level 1. (Judging on working level 1 instead,
-        // the frame's quarter resolution: 25 synth clips at 1280x720 95.0 against 95.2 %,
-        // `noisy` 97.4 against 98.1 %.)
+        // halved frame is already the frame's level 1, and judging a quarter-resolution level
+        // loses the detail that tells a fit from a near miss.
         let mut params = params;
         params.judge_level = params.judge_level.saturating_sub(work.halvings as usize);
         params.finest_level = params.finest_level.saturating_sub(work.halvings as usize);
@@ -406,7 +404,7 @@ impl Tracker {
         self.current()
     }
 
-    /// Predicted position of every joint (eq. 4.3), parents first.
+    /// Predicted position of every joint (docs/method.md eq. 2–3), parents first.
     fn predict(&mut self) -> Vec<Prediction> {
         let mut pred = vec![
             Prediction {
