@@ -329,8 +329,8 @@ impl Api {
         let Some(resume) = &self.resume else {
             return Reply::error(
                 501,
-                "resume is not available in this build: it needs `mocap2d resume RUN --segment K` \
-                 (segments, issue 4). Save your edits, then run that command when it exists.",
+                "this page cannot resume tracking: save your edits, then run \
+                 `mocap2d resume RUN --segment K` from a terminal.",
             );
         };
         let k: u32 = id.parse().unwrap_or(0);
