@@ -293,12 +293,6 @@ impl Session {
         self.finish(k + 1, frames.count)
     }
 
-    /// Tracks segment `k` from its first frame `first` (already decoded) on. Returns its rows
-    /// and, unless the clip ends within it, the estimate on the next segment's first frame with
-    /// that frame. When segment file `k + 1` is a correction (the next segment's first frame,
-    /// or the clip's last frame), the segment's frames are held and tracked backward from it
-    /// too, and the passes blended ([`super::blend`]).
-    #[allow(clippy::type_complexity)]
     /// Checkpoint after segment `k`: its rows, segment file `k + 1` from `next` (its frame, the
     /// estimates there, and whether it is the clip's last frame rather than a segment's first)
     /// unless that file is a correction, then the manifest. The manifest learns a file's hash before the

@@ -13,6 +13,12 @@ use crate::track::{JointEstimate, Status};
 use image::RgbImage;
 
 impl Session {
+    /// Tracks segment `k` from its first frame `first` (already decoded) on. Returns its rows
+    /// and, unless the clip ends within it, the estimate on the next segment's first frame with
+    /// that frame. When segment file `k + 1` is a correction (the next segment's first frame,
+    /// or the clip's last frame), the segment's frames are held and tracked backward from it
+    /// too, and the passes blended ([`crate::run::blend`]).
+    #[allow(clippy::type_complexity)]
     pub(super) fn track_segment<I: Iterator<Item = Result<(u64, RgbImage)>>>(
         &mut self,
         k: u64,
