@@ -36,12 +36,14 @@ use crate::seed::Seeds;
 use crate::track::scale::WorkScale;
 use crate::track::{JointEstimate, TrackParams, Tracker};
 use image::RgbImage;
+use std::collections::VecDeque;
 use std::path::PathBuf;
 
 mod pass;
 mod segment;
 
 use pass::{Appearance, Frames, Pass};
+use segment::keyed_row;
 
 /// Everything a segmented run needs besides the frames.
 pub struct Session {
@@ -245,6 +247,10 @@ impl Session {
             count: 0,
         };
         let start_frame = plan.first_frame(first_segment);
+        // From segment 0, the frames before the seed frame are held, to be tracked backward
+        // from it (at most `BEFORE_SEED_BYTES` of them: the latest).
+        let mut before: VecDeque<(u64, RgbImage)> = VecDeque::new();
+        let mut before_bytes = 0usize;
         let mut cur = loop {
             match frames.next()? {
                 Some((idx, f)) => {
@@ -253,6 +259,14 @@ impl Session {
                     }
                     if idx == start_frame {
                         break f;
+                    }
+                    if first_segment == 0 && idx < plan.seed_frame {
+                        before_bytes += f.as_raw().len();
+                        before.push_back((idx, f));
+                        while before_bytes > BEFORE_SEED_BYTES {
+                            let (_, old) = before.pop_front().expect("over the limit");
+                            before_bytes -= old.as_raw().len();
+                        }
                     }
                 }
                 None => {
@@ -273,8 +287,17 @@ impl Session {
         };
         let keys = keys::read(&self.run_dir, &self.names, self.width, self.height, None)?;
         let mut k = first_segment;
+        let mut pre = if before.is_empty() {
+            Vec::new()
+        } else {
+            self.track_before_seed(&cur, before, &keys)?
+        };
         loop {
-            let (rows, boundary) = self.track_segment(k, &cur, &mut frames, &keys)?;
+            let (mut rows, boundary) = self.track_segment(k, &cur, &mut frames, &keys)?;
+            if !pre.is_empty() {
+                pre.append(&mut rows);
+                rows = std::mem::take(&mut pre);
+            }
             match boundary {
                 Some((est, frame)) => {
                     cur = frame;
@@ -291,6 +314,42 @@ impl Session {
             }
         }
         self.finish(k + 1, frames.count)
+    }
+
+    /// The frames before the seed frame (`before`, in order, ending just before it), tracked
+    /// backward from the seed frame `seed` by a tracker built there, moved onto the keys of
+    /// `keys.toml` it passes. Their rows, in frame order.
+    fn track_before_seed(
+        &self,
+        seed: &RgbImage,
+        before: VecDeque<(u64, RgbImage)>,
+        keys: &[Key],
+    ) -> Result<Vec<(u64, Vec<JointEstimate>)>> {
+        let start = self.start(0)?;
+        let seed_frame = start.seeds.frame;
+        let mut pass = self.tracker_at(&start, seed, Appearance::Here)?;
+        // The tracker and its gap filler see time run forward: frame `seed_frame − i` is fed
+        // as `seed_frame + i`.
+        let mirror = |f: u64| 2 * seed_frame - f;
+        for (idx, frame) in before.iter().rev() {
+            pass.step(mirror(*idx), frame);
+            if let Some(key) = keys.iter().find(|x| x.frame == *idx) {
+                pass.move_to(key);
+            }
+        }
+        let mut rows: Vec<(u64, Vec<JointEstimate>)> = pass
+            .finish()
+            .into_iter()
+            .filter(|(f, _)| *f > seed_frame)
+            .map(|(f, est)| (mirror(f), est))
+            .collect();
+        for (f, row) in &mut rows {
+            if let Some(key) = keys.iter().find(|x| x.frame == *f) {
+                keyed_row(row, key);
+            }
+        }
+        rows.reverse();
+        Ok(rows)
     }
 
     /// Checkpoint after segment `k`: its rows, segment file `k + 1` from `next` (its frame, the
@@ -388,6 +447,10 @@ impl Session {
         crate::run::report::for_run(&self.run_dir, &self.manifest, &self.base)
     }
 }
+
+/// Most bytes of frames held before the seed frame to be tracked backward (about 380 frames of
+/// 1280×720): a seed frame later than that leaves the earliest frames untracked.
+const BEFORE_SEED_BYTES: usize = 1 << 30;
 
 /// Angles (radians) of a row as `tracks.csv` writes them (4 decimals).
 fn written_angles(est: &[JointEstimate]) -> Vec<f32> {

@@ -100,8 +100,8 @@ fn seeds_on_frame(frame: u64) -> String {
 }
 
 /// Checks `tracks.csv`: header, one row per joint per frame from `first` to the last frame in
-/// frame then seed-file order, a status word on every row, `seed` on the seed frame only.
-fn check_tracks(text: &str, first: usize) {
+/// frame then seed-file order, a status word on every row, `seed` on frame `seed` only.
+fn check_tracks(text: &str, first: usize, seed: usize) {
     let names: Vec<String> = read(&walk("joints.toml"))
         .lines()
         .filter_map(|l| {
@@ -116,7 +116,7 @@ fn check_tracks(text: &str, first: usize) {
     assert_eq!(
         rows.len(),
         JOINTS * (FRAMES - first),
-        "rows = joints × frames from the seed frame"
+        "rows = joints × frames from frame {first}"
     );
     for (i, r) in rows.iter().enumerate() {
         assert_eq!(r.len(), 7, "row {}: {r:?}", i + 2);
@@ -139,7 +139,7 @@ fn check_tracks(text: &str, first: usize) {
         assert!(STATUS_WORDS.contains(&r[6]), "row {}: {r:?}", i + 2);
         assert_eq!(
             r[6] == "seed",
-            i < JOINTS,
+            first + i / JOINTS == seed,
             "`seed` marks the seed frame only; row {}: {r:?}",
             i + 2
         );
@@ -150,7 +150,7 @@ fn check_tracks(text: &str, first: usize) {
 fn track_writes_tracks_manifest_and_seed_copy() {
     let d = Dir::new();
     let run = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "walk.mocap", &[]);
-    check_tracks(&read(&run.join("tracks.csv")), 0);
+    check_tracks(&read(&run.join("tracks.csv")), 0, 0);
     assert_eq!(
         read(&run.join("seeds.toml")),
         read(&walk("joints.toml")),
@@ -204,15 +204,60 @@ fn track_writes_tracks_manifest_and_seed_copy() {
     assert!(manifest.lines().any(|l| l == "complete = true"));
 }
 
+/// Seeded on frame 30 of the 60-frame walk, `track` follows the joints backward from there to
+/// frame 0 as well as forward: every frame has rows, `seed` only on frame 30, and the frames
+/// before it are as near the truth as the frames after. A second run repeats the bytes, and
+/// `resume --segment 0` too.
 #[test]
-fn track_starts_on_the_seed_frame() {
+fn frames_before_the_seed_frame_are_tracked_backward() {
     let d = Dir::new();
-    let seeds = d.write("frame10.toml", &seeds_on_frame(10));
+    let seeds = d.write("frame30.toml", &seeds_on_frame(30));
     let run = d.track_ok(&walk("clip.mp4"), &seeds, "walk.mocap", &[]);
-    check_tracks(&read(&run.join("tracks.csv")), 10);
+    let text = read(&run.join("tracks.csv"));
+    check_tracks(&text, 0, 30);
     assert!(read(&run.join("run.toml"))
         .lines()
-        .any(|l| l == "seed_frame = 10"));
+        .any(|l| l == "seed_frame = 30"));
+    // Measured: frames 0-29 PCK@5 100 %, mean error 0.28 px; frames 30-59 99.3 %, 0.33 px.
+    let gt = read(&walk("gt.csv"));
+    let truth: std::collections::HashMap<(u64, String), (f32, f32)> = gt
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            (
+                (v[0].parse().unwrap(), v[1].to_owned()),
+                (v[2].parse().unwrap(), v[3].parse().unwrap()),
+            )
+        })
+        .collect();
+    let (mut near, mut all, mut sum) = (0, 0, 0.0f32);
+    for l in text.lines().skip(1) {
+        let v: Vec<&str> = l.split(',').collect();
+        let f: u64 = v[0].parse().unwrap();
+        if f >= 30 {
+            continue;
+        }
+        let (x, y): (f32, f32) = (v[2].parse().unwrap(), v[3].parse().unwrap());
+        let (tx, ty) = truth[&(f, v[1].to_owned())];
+        let e = ((x - tx).powi(2) + (y - ty).powi(2)).sqrt();
+        near += (e <= 5.0) as usize;
+        all += 1;
+        sum += e;
+    }
+    assert_eq!(all, 30 * JOINTS);
+    assert!(near as f32 >= 0.98 * all as f32, "PCK@5 {near}/{all}");
+    assert!(
+        sum / (all as f32) < 0.6,
+        "mean error {} px",
+        sum / all as f32
+    );
+    // The same bytes again: tracking from scratch, and resuming from segment 0.
+    let again = d.track_ok(&walk("clip.mp4"), &seeds, "again.mocap", &[]);
+    assert_eq!(read(&again.join("tracks.csv")), text);
+    let o = d.run(&["resume", s(&run), "--segment", "0"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(read(&run.join("tracks.csv")), text);
 }
 
 #[test]
@@ -280,7 +325,7 @@ fn image_folder_tracks_like_the_video() {
         read(&video.join("tracks.csv")),
         read(&folder.join("tracks.csv")),
     );
-    check_tracks(&tf, 0);
+    check_tracks(&tf, 0, 0);
     assert!(
         tv == tf,
         "tracks.csv differs between the mp4 and its frames as PNGs"

@@ -336,7 +336,7 @@ impl Session {
 const KEYED_LEVELS: usize = 5;
 
 /// Puts a key's joints into a row: their positions, status `seed`, score 1.
-fn keyed_row(row: &mut [JointEstimate], key: &Key) {
+pub(super) fn keyed_row(row: &mut [JointEstimate], key: &Key) {
     for (e, k) in row.iter_mut().zip(&key.joints) {
         if let Some(p) = k {
             e.pos = *p;
