@@ -2,8 +2,9 @@
 //!
 //! ```text
 //! clip.mocap/
-//!   tracks.csv   frame,joint,x,y,angle,score,status — one row per joint per frame from the
-//!                seed frame to the last, by frame then seed-file order
+//!   tracks.csv   frame,joint,x,y,angle,score,status — one row per joint per frame from
+//!                frame 0 (before the seed frame: tracked backward from it) to the last, by
+//!                frame then seed-file order
 //!   run.toml     manifest: tool version, clip identity (path, size, content hash), frame count,
 //!                fps, frame size, seed file hash, every parameter used
 //!   seeds.toml   the seed file, verbatim
