@@ -76,6 +76,10 @@ pub struct Between {
 /// ways' miss (see docs/method.md, "Motion between keys").
 pub const LK_MARGIN: f32 = 0.5;
 
+/// A tracker whose ways land within this distance (px) of the keys was right between them: it
+/// stands whatever Lucas–Kanade's miss (which is then noise of the same size).
+pub const TRACKER_HIT_PX: f32 = 2.0;
+
 /// Variance (px²) given to a step no Lucas–Kanade pass could follow.
 const FAILED_STEP_VAR: f64 = 100.0;
 

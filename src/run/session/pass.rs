@@ -36,9 +36,19 @@ impl Pass {
     /// Moves the tracker onto a key's joints (the others stay where it has them), its motion
     /// filters keeping their rates, as for a corrected segment file.
     pub(super) fn move_to(&mut self, key: &Key) {
-        let centres: Vec<Point> = self
-            .tracker
-            .current()
+        let current = self.tracker.current();
+        // A key the tracker already sits on (every keyed joint within
+        // `keyed::TRACKER_HIT_PX`) leaves it as it is: restarting would only forget what it
+        // knows of the joints' hiding and motion.
+        let off = current
+            .iter()
+            .zip(&key.joints)
+            .filter_map(|(e, k)| k.map(|k| (k - e.pos).norm()))
+            .fold(0.0f32, f32::max);
+        if off <= crate::run::keyed::TRACKER_HIT_PX {
+            return;
+        }
+        let centres: Vec<Point> = current
             .iter()
             .zip(&key.joints)
             .map(|(e, k)| k.unwrap_or(e.pos))

@@ -241,8 +241,8 @@ impl Session {
                     &prm,
                 );
                 // Up to a corrected segment file, the blend of the tracker's passes stands for a
-                // joint unless Lucas–Kanade's two ways land decisively nearer the keys than the
-                // tracker's (see docs/method.md).
+                // joint unless the tracker's ways missed the keys by more than `TRACKER_HIT_PX`
+                // and Lucas–Kanade's two ways land decisively nearer them (docs/method.md §3).
                 let keep_blend: Vec<bool> = match (&back_here, &carried_end) {
                     (Some(bh), Some(ce)) if *ib == top && end.is_some() => (0..self.names.len())
                         .map(|j| {
@@ -251,17 +251,20 @@ impl Session {
                             };
                             let back_a = bh.get(*ia).map_or(*xa, |r| r[j]);
                             let miss_t = (ce[j] - xb).norm() + (back_a - *xa).norm();
-                            solved.lk_miss[j] >= keyed::LK_MARGIN * miss_t
+                            miss_t <= keyed::TRACKER_HIT_PX
+                                || solved.lk_miss[j] >= keyed::LK_MARGIN * miss_t
                         })
                         .collect(),
                     // Between keys of keys.toml the tracker ran forward only: it stands for a
-                    // joint, bent onto the far key, unless Lucas–Kanade forward lands there at
-                    // under half its miss.
+                    // joint, bent onto the far key, unless it missed that key by more than
+                    // `TRACKER_HIT_PX` and Lucas–Kanade forward lands there at under half its
+                    // miss.
                     _ => (0..self.names.len())
                         .map(|j| match kb[j] {
                             Some(xb) => {
                                 let miss_t = (track_pos[*ib][j] - xb).norm();
-                                solved.lk_fwd_miss[j] >= keyed::LK_MARGIN * miss_t
+                                miss_t <= keyed::TRACKER_HIT_PX
+                                    || solved.lk_fwd_miss[j] >= keyed::LK_MARGIN * miss_t
                             }
                             None => true,
                         })
