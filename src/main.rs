@@ -461,15 +461,12 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INTERRUPTED)
         }
         Err(e) => {
-            let msg = e.to_string();
-            eprintln!("mocap2d: {msg}");
-            // Causes the message does not already say (an I/O error's is in it).
+            eprintln!("mocap2d: {e}");
+            // Each message is said once: a variant whose message includes a cause's (an I/O
+            // error's OS message) does not also give it as its source.
             let mut src = std::error::Error::source(&e);
             while let Some(s) = src {
-                let cause = s.to_string();
-                if !msg.contains(&cause) {
-                    eprintln!("  caused by: {cause}");
-                }
+                eprintln!("  caused by: {s}");
                 src = s.source();
             }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })
