@@ -1,19 +1,15 @@
 //! Commands, as library calls: each validates its inputs completely before writing anything,
 //! then runs the stages in order. `main.rs` only parses flags and reports.
 
-use crate::background::{Background, Limb};
+use crate::background::{BackgroundChoice, BackgroundSetting};
 use crate::decode::{self, FrameSource};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::run::session::{Finished, Session};
 use crate::run::{folder, hash_clip, segments, ClipId, Manifest, SegmentRecord};
 use crate::seed::{read_seeds, Seeds};
-use crate::track::{gapfill::GapFiller, JointEstimate, Status, TrackParams, Tracker};
-use image::RgbImage;
+use crate::track::{JointEstimate, Status, TrackParams};
 use std::path::{Path, PathBuf};
-
-/// Frames sampled across the clip for the temporal-median clean plate.
-pub const BACKGROUND_SAMPLES: usize = 25;
 
 /// Options of `mocap2d track`.
 #[derive(Debug, Clone)]
@@ -27,10 +23,8 @@ pub struct TrackOptions {
     pub out: Option<PathBuf>,
     /// Frame rate for image folders (and override for videos).
     pub fps: Option<f64>,
-    /// A clean plate instead of the temporal median.
-    pub background: Option<PathBuf>,
-    /// Skip background subtraction altogether.
-    pub no_background: bool,
+    /// The background model: the temporal median, a clean plate, or none.
+    pub background: BackgroundChoice,
     /// Frames per segment: a checkpoint and a file to correct (`segments/NNN.toml`) every this many frames.
     pub segment_len: u64,
     pub params: TrackParams,
@@ -49,8 +43,7 @@ impl TrackOptions {
             dlc: None,
             out: None,
             fps: None,
-            background: None,
-            no_background: false,
+            background: BackgroundChoice::Median,
             segment_len: DEFAULT_SEGMENT_LEN,
             params: TrackParams::default(),
         }
@@ -89,144 +82,6 @@ pub fn default_run_dir(clip: &Path) -> PathBuf {
     let mut name = stem;
     name.push(".mocap");
     clip.parent().unwrap_or(Path::new(".")).join(name)
-}
-
-/// [`Error::Clip`]: the clip opened but gave no frame.
-fn no_frames(clip: &Path) -> Error {
-    Error::Clip {
-        path: clip.to_owned(),
-        msg: "no frames: the clip is empty, or damaged from its first frame".into(),
-    }
-}
-
-/// Builds the background model the options ask for; with `seeds`, a median plate is cleared of
-/// the subjects that sat still on their seed frame (see [`median_background`]).
-pub fn background_for(
-    opts: &TrackOptions,
-    width: u32,
-    height: u32,
-    seeds: Option<&Seeds>,
-) -> Result<(Option<Background>, String)> {
-    if opts.no_background {
-        return Ok((None, "none".into()));
-    }
-    if let Some(plate) = &opts.background {
-        return Ok((
-            Some(Background::from_plate_file(plate, width, height)?),
-            format!("plate:{}", plate.display()),
-        ));
-    }
-    let (bg, desc) = median_background(&opts.clip, opts.fps, seeds)?;
-    Ok((Some(bg), desc))
-}
-
-/// The clip's temporal-median plate over [`BACKGROUND_SAMPLES`] sampled frames, and its
-/// description for `run.toml`: `median:N`, or `median:N,rest` when `seeds` are given and the
-/// subjects that sat still on their seed frame (read at `fps`) are cleared from it
-/// ([`Background::clear_resting_subject`]).
-pub fn median_background(
-    clip: &Path,
-    fps: Option<f64>,
-    seeds: Option<&Seeds>,
-) -> Result<(Background, String)> {
-    // The seed frame comes with the sample when one sequential decode passes it.
-    let (samples, at_seed) =
-        decode::sample_frames_and(clip, BACKGROUND_SAMPLES, seeds.map(|s| s.frame))?;
-    if samples.is_empty() {
-        return Err(no_frames(clip));
-    }
-    let mut bg = Background::fit(&samples)?;
-    let mut desc = format!("median:{}", samples.len());
-    if let Some(seeds) = seeds {
-        let seed_frame = match at_seed {
-            Some(f) => f,
-            None => guide::read_frame(clip, fps, seeds.frame)?,
-        };
-        bg.clear_resting_subject(&samples, &seed_frame, &seed_bodies(seeds));
-        desc += ",rest";
-    }
-    Ok((bg, desc))
-}
-
-/// Each body of `seeds` (a root and its descendants) as limbs on the seed frame: every bone,
-/// reaching half its child's rectangle (the larger side) around it, and every joint's own
-/// rectangle.
-fn seed_bodies(seeds: &Seeds) -> Vec<Vec<Limb>> {
-    let sk = &seeds.skeleton;
-    let boxes = seeds.boxes();
-    let half = |j: usize| 0.5 * boxes[j].w.max(boxes[j].h) as f32;
-    let root = |mut j: usize| {
-        while let Some(p) = sk.parents[j] {
-            j = p;
-        }
-        j
-    };
-    let roots: Vec<usize> = (0..sk.len()).filter(|&j| sk.parents[j].is_none()).collect();
-    roots
-        .iter()
-        .map(|&r| {
-            (0..sk.len())
-                .filter(|&j| root(j) == r)
-                .map(|j| {
-                    let c = boxes[j].centre();
-                    let a = sk.parents[j].map_or(c, |p| boxes[p].centre());
-                    Limb {
-                        a,
-                        b: c,
-                        radius: half(j),
-                    }
-                })
-                .collect()
-        })
-        .collect()
-}
-
-/// Tracks every frame from the seed frame on, calling `sink` with each frame's estimates (the
-/// seed frame first). Frames before the seed frame are decoded and skipped. Returns the number
-/// of frames the source delivered in all.
-pub fn track_frames(
-    frames: impl Iterator<Item = Result<(u64, RgbImage)>>,
-    seeds: &Seeds,
-    params: &TrackParams,
-    background: Option<Background>,
-    progress: &dyn Progress,
-    mut sink: impl FnMut(u64, &[JointEstimate]) -> Result<()>,
-) -> Result<u64> {
-    let mut tracker: Option<(Tracker, GapFiller)> = None;
-    let mut background = background;
-    let mut count = 0;
-    for item in frames {
-        let (idx, frame) = item?;
-        count = idx + 1;
-        if idx < seeds.frame {
-            if !progress.advance(1) {
-                return Err(Error::Interrupted);
-            }
-            continue;
-        }
-        let done = match tracker.as_mut() {
-            None => {
-                let t = Tracker::new(params.clone(), seeds, &frame, background.take());
-                let mut g = t.gap_filler();
-                let done = g.push(idx, t.current());
-                tracker = Some((t, g));
-                done
-            }
-            Some((t, g)) => g.push(idx, t.step(&frame)),
-        };
-        for (i, est) in done {
-            sink(i, &est)?;
-        }
-        if !progress.advance(1) {
-            return Err(Error::Interrupted);
-        }
-    }
-    if let Some((_, g)) = tracker.as_mut() {
-        for (i, est) in g.finish() {
-            sink(i, &est)?;
-        }
-    }
-    Ok(count)
 }
 
 /// What `track` does with a run folder that holds the run of another clip (another content).
@@ -331,8 +186,10 @@ pub fn track_into(
     };
     folder::check_no_corrections(&run_dir).map_err(unmake)?;
     progress.start("background", None);
-    let (background, bg_desc) =
-        background_for(opts, info.width, info.height, Some(&seeds)).map_err(unmake)?;
+    let (background, setting) = opts
+        .background
+        .build(&opts.clip, opts.fps, info.width, info.height, Some(&seeds))
+        .map_err(unmake)?;
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
     let (bytes, blake3) = hash_clip(&opts.clip).map_err(unmake)?;
@@ -371,7 +228,7 @@ pub fn track_into(
         &seed_text,
         opts,
         &info,
-        bg_desc,
+        setting,
         threshold,
         bytes,
         blake3,
@@ -454,7 +311,7 @@ fn prepare_new_run(
     seed_text: &str,
     opts: &TrackOptions,
     info: &decode::ClipInfo,
-    bg_desc: String,
+    setting: BackgroundSetting,
     threshold: u32,
     bytes: u64,
     blake3: String,
@@ -501,7 +358,7 @@ fn prepare_new_run(
         seed_frame: seeds.frame,
         joints: seeds.joints.len(),
         seeds_blake3: blake3::hash(seed_text.as_bytes()).to_hex().to_string(),
-        background: bg_desc,
+        background: setting,
         background_threshold: threshold,
         segment_len: opts.segment_len,
         config_blake3: String::new(),
@@ -630,7 +487,8 @@ pub use animate::{
     RetargetSummary, RETARGET_DIR,
 };
 pub use export::{export, ExportOptions, ExportSummary, UserSkeleton};
-pub use guide::{guide, read_frame, GuideOptions, GuideSummary};
+pub use crate::decode::read_frame;
+pub use guide::{guide, GuideOptions, GuideSummary};
 pub use resume::{resume, ResumeOptions};
 pub use review::{review, ReviewSummary, REVIEW_DIR};
 pub use serve::{serve, DEFAULT_PORT};

@@ -271,7 +271,7 @@ fn stages(
     let track = TrackOptions {
         out: opts.out_dir.as_ref().map(|_| run_dir.to_owned()),
         fps: opts.fps,
-        no_background: opts.no_background,
+        background: crate::background::BackgroundChoice::from_flags(None, opts.no_background),
         params: opts.params.clone(),
         ..TrackOptions::new(clip, opts.seeds.for_clip(clip))
     };

@@ -249,8 +249,10 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 dlc,
                 out: a.out,
                 fps: a.fps,
-                background: a.background,
-                no_background: a.no_background,
+                background: mocap2d::background::BackgroundChoice::from_flags(
+                    a.background,
+                    a.no_background,
+                ),
                 segment_len: a.segment_len,
             };
             let other = match a.replace {

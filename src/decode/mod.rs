@@ -223,6 +223,24 @@ pub fn read_all(path: &Path, fps: Option<f64>) -> Result<Vec<RgbImage>> {
     Ok(frames)
 }
 
+/// Decodes frame `index` of `clip` (streaming through the frames before it).
+/// [`Error::Usage`] when the clip is shorter.
+pub fn read_frame(clip: &Path, fps: Option<f64>, index: u64) -> Result<RgbImage> {
+    let mut source = open(clip, fps)?;
+    let mut n = 0u64;
+    while let Some(f) = source.next_frame()? {
+        if n == index {
+            return Ok(f);
+        }
+        n += 1;
+    }
+    Err(Error::Usage(format!(
+        "--frame {index} is beyond {}, which has {n} frames (0 to {}); give a frame of the clip",
+        clip.display(),
+        n.saturating_sub(1)
+    )))
+}
+
 /// Opens a video file (via FFmpeg, feature "ffmpeg") or a directory of numbered PNG/JPEG frames
 /// (natural sort: frame2 < frame10); `fps` (frames per second) overrides the video's rate or sets
 /// the folder's (image folders default to [`DEFAULT_IMAGE_FPS`]).
