@@ -3,6 +3,8 @@
 //!     cargo run --release --example accuracy -- [SCENARIO ...] [--size 640x360] [--frames N]
 //!
 //! Prints one line per scenario: median, p95, PCK@5, PCK@10 and tracking frames/s.
+#[path = "common/size.rs"]
+mod size;
 
 use mocap2d::app::{track, TrackOptions};
 use mocap2d::progress::NoProgress;
@@ -20,7 +22,7 @@ fn main() -> anyhow::Result<()> {
     while i < args.len() {
         match args[i].as_str() {
             "--size" => {
-                size = mocap2d::cli::parse_size(&args[i + 1]).map_err(anyhow::Error::msg)?;
+                size = size::parse_size(&args[i + 1]).map_err(anyhow::Error::msg)?;
                 i += 1;
             }
             "--frames" => {
@@ -70,7 +72,7 @@ fn main() -> anyhow::Result<()> {
         };
         let opts = TrackOptions {
             out: Some(dir.join("run")),
-            params: mocap2d::cli::read_params(
+            params: mocap2d::app::read_params(
                 std::env::var("PARAMS")
                     .ok()
                     .as_deref()

@@ -2,6 +2,8 @@
 //! errors at each tracker stage for the frames where something goes wrong.
 //!
 //!     cargo run --release --example diag -- SCENARIO [--frames N] [--from F] [--to F] [--mp4]
+#[path = "common/size.rs"]
+mod size;
 #[path = "common/probe.rs"]
 mod probe;
 
@@ -24,7 +26,7 @@ fn main() -> anyhow::Result<()> {
     let thr: f32 = get("--thr").map_or(3.0, |v| v.parse().unwrap());
     let seed: u64 = get("--seed").map_or(1, |v| v.parse().unwrap());
     let (width, height) =
-        get("--size").map_or((640, 360), |v| mocap2d::cli::parse_size(&v).unwrap());
+        get("--size").map_or((640, 360), |v| size::parse_size(&v).unwrap());
     let clip = render(&SynthOptions {
         scenario: sc,
         width,
@@ -47,7 +49,7 @@ fn main() -> anyhow::Result<()> {
             .cloned()
             .collect::<Vec<_>>(),
     )?;
-    let params = mocap2d::cli::read_params(
+    let params = mocap2d::app::read_params(
         std::env::var("PARAMS")
             .ok()
             .as_deref()

@@ -33,7 +33,7 @@ fn main() -> anyhow::Result<()> {
     let thr: f32 = get("--thr").map_or(1e9, |v| v.parse().unwrap());
     let from: u64 = get("--from").map_or(0, |v| v.parse().unwrap());
     let to: u64 = get("--to").map_or(u64::MAX, |v| v.parse().unwrap());
-    let params = mocap2d::cli::read_params(
+    let params = mocap2d::app::read_params(
         std::env::var("PARAMS")
             .ok()
             .as_deref()

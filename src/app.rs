@@ -109,6 +109,7 @@ pub fn track_into(
     progress: &dyn Progress,
 ) -> Result<TrackSummary> {
     // Validate everything before anything is written.
+    opts.params.validate()?;
     let (seeds, seed_text, note) = match &opts.dlc {
         None => {
             let (s, t) = read_seeds(&opts.seeds)?;
@@ -478,6 +479,7 @@ pub fn eval(run_dir: &Path, gt_path: &Path, per_joint: bool) -> Result<Vec<Strin
 mod animate;
 mod export;
 mod guide;
+mod params;
 mod resume;
 mod review;
 mod serve;
@@ -489,6 +491,7 @@ pub use animate::{
 pub use export::{export, ExportOptions, ExportSummary, UserSkeleton};
 pub use crate::decode::read_frame;
 pub use guide::{guide, GuideOptions, GuideSummary};
+pub use params::read_params;
 pub use resume::{resume, ResumeOptions};
 pub use review::{review, ReviewSummary, REVIEW_DIR};
 pub use serve::{serve, DEFAULT_PORT};

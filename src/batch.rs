@@ -93,6 +93,7 @@ pub struct Plan {
 /// folder (`a.mp4` and `a.mov` side by side; two `a.mp4` in different folders with
 /// `--out-dir`). Errors are [`Error::Usage`].
 pub fn plan(opts: &BatchOptions) -> Result<Plan> {
+    opts.params.validate()?;
     if opts.render && opts.retarget.is_none() {
         return Err(Error::Usage(
             "batch --render needs --retarget CHARACTER.toml (the character to draw)".into(),

@@ -43,7 +43,14 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
     let _lock = crate::run::lock::RunLock::acquire(run_dir, "resume")?;
     let manifest_path = run_dir.join(RUN_TOML);
     let manifest = Manifest::read(&manifest_path)?;
+    if let Some(p) = &opts.params {
+        p.validate()?;
+    }
     let clip = check_inputs(opts, &manifest, &manifest_path)?;
+    manifest.params.validate().map_err(|e| Error::RunFolder {
+        path: manifest_path.clone(),
+        msg: format!("{e}; track again into a new folder"),
+    })?;
     let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
     let first = match pick_segment(opts, &manifest, run_dir)? {
         Some(k) => k,
