@@ -2,10 +2,10 @@
 //! errors at each tracker stage for the frames where something goes wrong.
 //!
 //!     cargo run --release --example diag -- SCENARIO [--frames N] [--from F] [--to F] [--mp4]
-#[path = "common/size.rs"]
-mod size;
 #[path = "common/probe.rs"]
 mod probe;
+#[path = "common/size.rs"]
+mod size;
 
 use mocap2d::background::Background;
 use mocap2d::synth::{render, Scenario, SynthOptions};
@@ -25,8 +25,7 @@ fn main() -> anyhow::Result<()> {
     let to: usize = get("--to").map_or(usize::MAX, |v| v.parse().unwrap());
     let thr: f32 = get("--thr").map_or(3.0, |v| v.parse().unwrap());
     let seed: u64 = get("--seed").map_or(1, |v| v.parse().unwrap());
-    let (width, height) =
-        get("--size").map_or((640, 360), |v| size::parse_size(&v).unwrap());
+    let (width, height) = get("--size").map_or((640, 360), |v| size::parse_size(&v).unwrap());
     let clip = render(&SynthOptions {
         scenario: sc,
         width,

@@ -12,8 +12,8 @@ mod median;
 mod setting;
 
 pub use choice::{median_background, BackgroundChoice, BACKGROUND_SAMPLES};
-pub use setting::BackgroundSetting;
 pub(crate) use setting::deserialize_either;
+pub use setting::BackgroundSetting;
 
 /// A clean plate and the colour distance above which a pixel counts as foreground.
 #[derive(Debug, Clone)]

@@ -52,6 +52,5 @@ pub enum Command {
     Batch(BatchArgs),
 }
 
-
 #[cfg(test)]
 mod tests;

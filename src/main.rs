@@ -2,10 +2,10 @@
 //! failure, 130 interrupted by Ctrl-C).
 
 use clap::Parser;
+use cli::{BatchArgs, Cli, Command};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mocap2d::app;
 use mocap2d::batch::{BatchProgress, ClipOutcome, Status};
-use cli::{BatchArgs, Cli, Command};
 use mocap2d::error::EXIT_INTERRUPTED;
 use mocap2d::progress::Progress;
 use std::io::IsTerminal;

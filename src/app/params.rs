@@ -69,11 +69,18 @@ mod tests {
             length_anchor: 1.5,
             ..TrackParams::default()
         };
-        assert!(p.validate().unwrap_err().to_string().contains("length_anchor"));
+        assert!(p
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("length_anchor"));
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("p.toml");
         std::fs::write(&f, "work_box_px = nan\n").unwrap();
         let e = read_params(Some(&f)).unwrap_err().to_string();
-        assert!(e.starts_with(&format!("{}: work_box_px", f.display())), "{e}");
+        assert!(
+            e.starts_with(&format!("{}: work_box_px", f.display())),
+            "{e}"
+        );
     }
 }

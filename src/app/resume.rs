@@ -2,7 +2,7 @@
 //! K after the user corrected segment files. Segments before K keep their rows byte for byte;
 //! the previous `tracks.csv` goes to `history/`.
 
-use super::TrackSummary;
+use super::track::TrackSummary;
 use crate::background::Background;
 use crate::decode;
 use crate::error::{Error, Result};

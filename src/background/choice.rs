@@ -164,4 +164,3 @@ fn seed_bodies(seeds: &Seeds) -> Vec<Vec<Limb>> {
         })
         .collect()
 }
-

@@ -139,8 +139,8 @@ mod tests {
         assert!(e.message().contains("median:N,rest"), "{e}");
         let e = toml::from_str::<Holder>("[background]\nkind = \"blur\"\n").unwrap_err();
         assert!(e.message().contains("blur"), "{e}");
-        let e = toml::from_str::<Holder>("[background]\nkind = \"median\"\nsamples = 3\n")
-            .unwrap_err();
+        let e =
+            toml::from_str::<Holder>("[background]\nkind = \"median\"\nsamples = 3\n").unwrap_err();
         assert!(e.message().contains("rest"), "{e}");
     }
 }

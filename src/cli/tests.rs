@@ -122,7 +122,13 @@ fn flags_become_options_in_one_step() {
     assert_eq!(other, mocap2d::app::OtherClip::Replace);
     assert_eq!(o.params, mocap2d::track::TrackParams::default());
     let cli = Cli::try_parse_from([
-        "mocap2d", "track", "a.mp4", "--seeds", "j.toml", "--background", "p.png",
+        "mocap2d",
+        "track",
+        "a.mp4",
+        "--seeds",
+        "j.toml",
+        "--background",
+        "p.png",
     ])
     .unwrap();
     let Command::Track(a) = cli.command else {

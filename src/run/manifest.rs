@@ -245,7 +245,10 @@ mod tests {
         assert!(text.contains("[background]\nkind = \"median\"\nsamples = 25\nrest = true\n"));
         // As mocap2d wrote it before: a string among the plain fields.
         let old = text
-            .replace("\n[background]\nkind = \"median\"\nsamples = 25\nrest = true\n", "")
+            .replace(
+                "\n[background]\nkind = \"median\"\nsamples = 25\nrest = true\n",
+                "",
+            )
             .replace(
                 "background_threshold = ",
                 "background = \"median:25,rest\"\nbackground_threshold = ",
@@ -254,9 +257,12 @@ mod tests {
         let read = Manifest::parse(&old, Path::new("run.toml")).unwrap();
         assert_eq!(read, m);
         assert_eq!(read.config_hash(), m.config_blake3);
-        let e = Manifest::parse(&old.replace("median:25,rest", "median"), Path::new("run.toml"))
-            .unwrap_err()
-            .to_string();
+        let e = Manifest::parse(
+            &old.replace("median:25,rest", "median"),
+            Path::new("run.toml"),
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("median:N,rest"), "{e}");
     }
 
