@@ -128,7 +128,7 @@ pub fn median_background(
         bg.clear_resting_subject(&samples, &seed_frame, &seed_bodies(seeds));
         rest = true;
     }
-    let samples = samples.len();
+    let samples = samples.len() as u32;
     Ok((bg, BackgroundSetting::Median { samples, rest }))
 }
 

@@ -23,7 +23,8 @@ pub enum BackgroundSetting {
     },
     /// The temporal median of `samples` frames sampled across the clip; with `rest`, cleared of
     /// the subjects at rest on the seed frame (runs made before that have `rest = false`).
-    Median { samples: usize, rest: bool },
+    /// (`samples` is a `u32` so that every setting that reads also writes as TOML.)
+    Median { samples: u32, rest: bool },
 }
 
 /// A path as text (lossy for a path that is not UTF-8, as `run.toml` always held it).
@@ -137,6 +138,8 @@ mod tests {
     fn a_damaged_setting_says_what_is_expected() {
         let e = toml::from_str::<Holder>("background = \"median\"\n").unwrap_err();
         assert!(e.message().contains("median:N,rest"), "{e}");
+        // Too many samples to write back as TOML: refused on reading.
+        assert!(toml::from_str::<Holder>("background = \"median:99999999999\"\n").is_err());
         let e = toml::from_str::<Holder>("[background]\nkind = \"blur\"\n").unwrap_err();
         assert!(e.message().contains("blur"), "{e}");
         let e =
