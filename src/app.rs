@@ -26,3 +26,6 @@ pub use serve::{serve, DEFAULT_PORT};
 pub use track::{
     default_run_dir, track, track_into, OtherClip, TrackOptions, TrackSummary, DEFAULT_SEGMENT_LEN,
 };
+
+#[cfg(test)]
+mod tests;
