@@ -69,3 +69,41 @@ fn resume_reads_the_background_string_of_earlier_run_folders() {
         assert_eq!(again.config_blake3, m.config_blake3, "{c:?}");
     }
 }
+
+/// Parameters are validated on every path: a library caller's `track` (before anything is
+/// written) and `resume` of a run whose `run.toml` holds a value out of range.
+#[cfg(feature = "ffmpeg")]
+#[test]
+fn out_of_range_parameters_are_refused_by_track_and_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("r.mocap");
+    let mut opts = TrackOptions {
+        out: Some(run.clone()),
+        ..TrackOptions::new(walk("clip.mp4"), walk("joints.toml"))
+    };
+    opts.params.work_box_px = -1.0;
+    let e = track(&opts, &NoProgress).unwrap_err();
+    assert!(
+        e.is_user_error() && e.to_string().contains("work_box_px = -1"),
+        "{e}"
+    );
+    assert!(!run.exists(), "nothing written");
+    opts.params = Default::default();
+    track(&opts, &NoProgress).unwrap();
+    let toml_path = run.join("run.toml");
+    let mut m = crate::run::Manifest::read(&toml_path).unwrap();
+    m.params.work_box_px = f32::NAN;
+    m.config_blake3 = m.config_hash();
+    m.write(&run).unwrap();
+    let e = resume(
+        &ResumeOptions {
+            run: run.clone(),
+            segment: Some(0),
+            ..ResumeOptions::default()
+        },
+        &NoProgress,
+    )
+    .unwrap_err();
+    assert!(matches!(e, crate::Error::RunFolder { .. }), "{e}");
+    assert!(e.to_string().contains("work_box_px = NaN"), "{e}");
+}
