@@ -3,6 +3,8 @@
 //!     cargo run --release --example accuracy -- [SCENARIO ...] [--size 640x360] [--frames N]
 //!
 //! Prints one line per scenario: median, p95, PCK@5, PCK@10 and tracking frames/s.
+#[path = "common/size.rs"]
+mod size;
 
 use mocap2d::app::{track, TrackOptions};
 use mocap2d::progress::NoProgress;
@@ -20,7 +22,7 @@ fn main() -> anyhow::Result<()> {
     while i < args.len() {
         match args[i].as_str() {
             "--size" => {
-                size = mocap2d::cli::parse_size(&args[i + 1]).map_err(anyhow::Error::msg)?;
+                size = size::parse_size(&args[i + 1]).map_err(anyhow::Error::msg)?;
                 i += 1;
             }
             "--frames" => {
@@ -56,54 +58,29 @@ fn main() -> anyhow::Result<()> {
         });
         let dir = tmp.path().join(sc.name());
         write_clip(&clip, &dir)?;
+        // --memory: the rendered frames as lossless PNGs instead of the encoded clip, tracked
+        // the same way, to separate tracker errors from compression and decoding.
+        let input = if memory {
+            let frames = dir.join("frames");
+            std::fs::create_dir_all(&frames)?;
+            for (i, f) in clip.frames.iter().enumerate() {
+                f.save(frames.join(format!("{i:06}.png")))?;
+            }
+            frames
+        } else {
+            dir.join("clip.mp4")
+        };
         let opts = TrackOptions {
             out: Some(dir.join("run")),
-            params: mocap2d::cli::read_params(
+            params: mocap2d::app::read_params(
                 std::env::var("PARAMS")
                     .ok()
                     .as_deref()
                     .map(std::path::Path::new),
             )?,
-            ..TrackOptions::new(dir.join("clip.mp4"), dir.join("joints.toml"))
+            ..TrackOptions::new(input, dir.join("joints.toml"))
         };
         let t0 = std::time::Instant::now();
-        if memory {
-            // Track the rendered frames directly (no encode/decode), to separate tracker
-            // errors from compression and decoding.
-            let (seeds, _) = mocap2d::seed::read_seeds(&opts.seeds)?;
-            let bg = mocap2d::background::Background::fit(
-                &clip.frames.iter().step_by(5).cloned().collect::<Vec<_>>(),
-            )?;
-            let mut errs = Vec::new();
-            let frames = clip
-                .frames
-                .iter()
-                .cloned()
-                .enumerate()
-                .map(|(i, f)| Ok((i as u64, f)));
-            mocap2d::app::track_frames(
-                frames,
-                &seeds,
-                &opts.params,
-                Some(bg),
-                &NoProgress,
-                |f, est| {
-                    for (j, e) in est.iter().enumerate() {
-                        let g = clip.gt[f as usize][j];
-                        errs.push(((e.pos.x - g.0).powi(2) + (e.pos.y - g.1).powi(2)).sqrt());
-                    }
-                    Ok(())
-                },
-            )?;
-            let fps = clip.frames.len() as f64 / t0.elapsed().as_secs_f64();
-            println!(
-                "{:<8} memory: {}  ({:.0} frames/s)",
-                sc.name(),
-                mocap2d::eval::summarise(&errs),
-                fps
-            );
-            continue;
-        }
         let s = track(&opts, &NoProgress)?;
         let fps = s.tracked_frames as f64 / t0.elapsed().as_secs_f64();
         let lines = mocap2d::app::eval(
@@ -112,8 +89,9 @@ fn main() -> anyhow::Result<()> {
             std::env::var("PER_JOINT").is_ok(),
         )?;
         println!(
-            "{:<8} {}  ({:.0} frames/s, {:?})",
+            "{:<8} {}{}  ({:.0} frames/s, {:?})",
             sc.name(),
+            if memory { "memory: " } else { "" },
             lines[0],
             fps,
             s.status_counts

@@ -12,12 +12,14 @@
 //! Child processes (`ffmpeg`, the `mocap2d` binary) are measured with GNU `/usr/bin/time -f %M`.
 
 use anyhow::{bail, Context, Result};
-use mocap2d::app::{self, TrackOptions, BACKGROUND_SAMPLES};
-use mocap2d::background::Background;
+use mocap2d::app::{self, TrackOptions};
+use mocap2d::background::{BackgroundChoice, BACKGROUND_SAMPLES};
 use mocap2d::decode;
 use mocap2d::progress::NoProgress;
+use mocap2d::run::manifest::RUN_TOML;
+use mocap2d::run::session::Session;
+use mocap2d::run::Manifest;
 use mocap2d::seed::read_seeds;
-use mocap2d::track::TrackParams;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -180,12 +182,14 @@ fn bench_clip(dir: &Path, reps: usize, bin: &Path, notes: &mut Vec<String>) -> R
         what: "`ffmpeg -threads 0 -i clip.mp4 -f null -`, wall clock; no RGB conversion".into(),
     });
 
-    // background: sample frames across the clip + temporal median.
+    // background: the model `track` builds (sampled frames, temporal median, cleared of the
+    // subjects at rest on the seed frame).
     let mut bg = None;
     let (fps, rss) = stage("background", reps, || {
         let t = Instant::now();
-        let samples = decode::sample_frames(&clip, BACKGROUND_SAMPLES)?;
-        bg = Some(Background::fit(&samples)?);
+        let (model, _) =
+            BackgroundChoice::Median.build(&clip, None, info.width, info.height, Some(&seeds))?;
+        bg = model;
         Ok((frames, t.elapsed().as_secs_f64()))
     })?;
     rows.push(Row {
@@ -193,7 +197,8 @@ fn bench_clip(dir: &Path, reps: usize, bin: &Path, notes: &mut Vec<String>) -> R
         fps,
         rss,
         what: format!(
-            "`sample_frames({BACKGROUND_SAMPLES})` + `Background::fit`, as frames/s over the clip"
+            "`BackgroundChoice::Median.build` ({BACKGROUND_SAMPLES} sampled frames, median, the \
+             resting subjects cleared), as frames/s over the clip"
         ),
     });
 
@@ -244,34 +249,48 @@ fn bench_clip(dir: &Path, reps: usize, bin: &Path, notes: &mut Vec<String>) -> R
         }
     }
 
-    // track-only: the tracker over frames already decoded into memory.
+    // track-only: the segmented tracking loop `track` and `resume` run (`Session`), over frames
+    // already decoded into memory, into the run folder of the track stage (rewritten each run).
     let mut decoded = Vec::with_capacity(frames as usize);
     let mut src = decode::open(&clip, None)?;
     while let Some(f) = src.next_frame()? {
         decoded.push(f);
     }
+    let run_dir = tmp.path().join("run1");
+    let mut manifest = Manifest::read(&run_dir.join(RUN_TOML))?;
+    manifest.complete = false;
+    manifest.tracked_segments = 0;
+    let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
     let (fps, rss) = stage("track-only", reps, || {
         let batch = decoded.clone(); // untimed: the tracker takes frames by value
         let items = batch
             .into_iter()
             .enumerate()
             .map(|(i, f)| Ok((i as u64, f)));
+        let mut session = Session {
+            run_dir: run_dir.clone(),
+            names: base.joints.iter().map(|j| j.name.clone()).collect(),
+            base: base.clone(),
+            params: manifest.params.clone(),
+            background: bg.clone(),
+            width: manifest.width,
+            height: manifest.height,
+            manifest: manifest.clone(),
+            seed_image: None,
+            last_angles: None,
+            carried: None,
+        };
         let t = Instant::now();
-        let n = app::track_frames(
-            items,
-            &seeds,
-            &TrackParams::default(),
-            bg.clone(),
-            &NoProgress,
-            |_, _| Ok(()),
-        )?;
-        Ok((n, t.elapsed().as_secs_f64()))
+        let done = session.run(items, 0, &NoProgress)?;
+        Ok((done.frames, t.elapsed().as_secs_f64()))
     })?;
     rows.push(Row {
         stage: "track-only",
         fps,
         rss,
-        what: "`app::track_frames` over decoded frames in memory (RSS holds the clip twice)".into(),
+        what: "`run::session::Session::run` (what `track` runs after decode and background) over \
+               decoded frames in memory (RSS holds the clip twice)"
+            .into(),
     });
 
     Ok(ClipBench {

@@ -4,6 +4,8 @@
 //!     cargo run --release --example diag -- SCENARIO [--frames N] [--from F] [--to F] [--mp4]
 #[path = "common/probe.rs"]
 mod probe;
+#[path = "common/size.rs"]
+mod size;
 
 use mocap2d::background::Background;
 use mocap2d::synth::{render, Scenario, SynthOptions};
@@ -23,8 +25,7 @@ fn main() -> anyhow::Result<()> {
     let to: usize = get("--to").map_or(usize::MAX, |v| v.parse().unwrap());
     let thr: f32 = get("--thr").map_or(3.0, |v| v.parse().unwrap());
     let seed: u64 = get("--seed").map_or(1, |v| v.parse().unwrap());
-    let (width, height) =
-        get("--size").map_or((640, 360), |v| mocap2d::cli::parse_size(&v).unwrap());
+    let (width, height) = get("--size").map_or((640, 360), |v| size::parse_size(&v).unwrap());
     let clip = render(&SynthOptions {
         scenario: sc,
         width,
@@ -47,7 +48,7 @@ fn main() -> anyhow::Result<()> {
             .cloned()
             .collect::<Vec<_>>(),
     )?;
-    let params = mocap2d::cli::read_params(
+    let params = mocap2d::app::read_params(
         std::env::var("PARAMS")
             .ok()
             .as_deref()

@@ -12,7 +12,7 @@
 #[path = "common/probe.rs"]
 mod probe;
 
-use mocap2d::app::{background_for, TrackOptions};
+use mocap2d::background::BackgroundChoice;
 use mocap2d::decode;
 use mocap2d::track::Tracker;
 use std::collections::HashMap;
@@ -33,18 +33,16 @@ fn main() -> anyhow::Result<()> {
     let thr: f32 = get("--thr").map_or(1e9, |v| v.parse().unwrap());
     let from: u64 = get("--from").map_or(0, |v| v.parse().unwrap());
     let to: u64 = get("--to").map_or(u64::MAX, |v| v.parse().unwrap());
-    let params = mocap2d::cli::read_params(
+    let params = mocap2d::app::read_params(
         std::env::var("PARAMS")
             .ok()
             .as_deref()
             .map(std::path::Path::new),
     )?;
     let (seeds, _) = mocap2d::seed::read_seeds(&seeds_path)?;
-    let mut opts = TrackOptions::new(&clip, &seeds_path);
-    opts.params = params.clone();
     let mut source = decode::open(&clip, None)?;
     let (w, h) = (source.info().width, source.info().height);
-    let (bg, _) = background_for(&opts, w, h, Some(&seeds))?;
+    let (bg, _) = BackgroundChoice::Median.build(&clip, None, w, h, Some(&seeds))?;
     if let Some(b) = &bg {
         b.plate.save("/tmp/plate.png")?;
         eprintln!("clean plate saved to /tmp/plate.png");

@@ -9,6 +9,8 @@
 //! cargo run --release --example segments -- long --len 0,150,300
 //! cargo run --release --example segments -- walk squash --frames 450 --len 0,150
 //! ```
+#[path = "common/size.rs"]
+mod size;
 
 use mocap2d::app::{track, TrackOptions};
 use mocap2d::progress::NoProgress;
@@ -34,7 +36,7 @@ fn main() -> anyhow::Result<()> {
             }
             "--frames" => frames = Some(args.next().unwrap_or_default().parse()?),
             "--size" => {
-                size = mocap2d::cli::parse_size(&args.next().unwrap_or_default())
+                size = size::parse_size(&args.next().unwrap_or_default())
                     .map_err(anyhow::Error::msg)?
             }
             s => scenarios.push(s.parse::<Scenario>()?),

@@ -7,7 +7,13 @@ use crate::geom::Point;
 use image::RgbImage;
 use std::path::Path;
 
+mod choice;
 mod median;
+mod setting;
+
+pub use choice::{median_background, BackgroundChoice, BACKGROUND_SAMPLES};
+pub(crate) use setting::deserialize_either;
+pub use setting::BackgroundSetting;
 
 /// A clean plate and the colour distance above which a pixel counts as foreground.
 #[derive(Debug, Clone)]

@@ -93,6 +93,7 @@ pub struct Plan {
 /// folder (`a.mp4` and `a.mov` side by side; two `a.mp4` in different folders with
 /// `--out-dir`). Errors are [`Error::Usage`].
 pub fn plan(opts: &BatchOptions) -> Result<Plan> {
+    opts.params.validate()?;
     if opts.render && opts.retarget.is_none() {
         return Err(Error::Usage(
             "batch --render needs --retarget CHARACTER.toml (the character to draw)".into(),
@@ -271,7 +272,7 @@ fn stages(
     let track = TrackOptions {
         out: opts.out_dir.as_ref().map(|_| run_dir.to_owned()),
         fps: opts.fps,
-        no_background: opts.no_background,
+        background: crate::background::BackgroundChoice::from_flags(None, opts.no_background),
         params: opts.params.clone(),
         ..TrackOptions::new(clip, opts.seeds.for_clip(clip))
     };

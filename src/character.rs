@@ -27,6 +27,9 @@
 //! names, `[map]`, `[bones]`, recognised body-part names).
 //! Every problem is an [`Error::Character`] naming the file, line and joint, with the fix: exit 2.
 
+mod image_file;
+
+use self::image_file::{load_image, near_opaque};
 use crate::error::{Error, Result};
 use crate::geom::Point;
 use crate::seed::is_valid_joint_name;
@@ -470,131 +473,5 @@ fn parse_hex(s: &str) -> Option<[u8; 3]> {
     Some([c(0)?, c(2)?, c(4)?])
 }
 
-/// Loads a PNG with an alpha channel; errors go through `err` (user errors).
-fn load_image(path: &Path, err: &dyn Fn(String) -> Error) -> Result<RgbaImage> {
-    if !path.is_file() {
-        return Err(err(format!(
-            "image {} not found; `image` is relative to the character file",
-            path.display()
-        )));
-    }
-    let cannot =
-        |e: image::ImageError| err(format!("image {}: cannot decode: {e}", path.display()));
-    // The size from the header first: a huge image is refused before it is decoded.
-    let (w, h) = image::image_dimensions(path).map_err(cannot)?;
-    if w < 8 || h < 8 || w > 8192 || h > 8192 {
-        return Err(err(format!(
-            "image {} is {w}×{h} px; use 8 to 8192 px a side",
-            path.display()
-        )));
-    }
-    let img = image::open(path).map_err(cannot)?;
-    if !img.color().has_alpha() {
-        return Err(err(format!(
-            "image {} has no alpha channel; save it as a PNG with transparency around the character",
-            path.display()
-        )));
-    }
-    let img = img.to_rgba8();
-    if img.width() < 8 || img.height() < 8 || img.width() > 8192 || img.height() > 8192 {
-        return Err(err(format!(
-            "image {} is {}×{} px; use 8 to 8192 px a side",
-            path.display(),
-            img.width(),
-            img.height()
-        )));
-    }
-    Ok(img)
-}
-
-/// True when a pixel within `radius` px of `(x, y)` has alpha >= [`ALPHA_INSIDE`].
-fn near_opaque(img: &RgbaImage, x: f32, y: f32, radius: i32) -> bool {
-    let (cx, cy) = (x.round() as i32, y.round() as i32);
-    (-radius..=radius).any(|dy| {
-        (-radius..=radius).any(|dx| {
-            let (px, py) = (cx + dx, cy + dy);
-            px >= 0
-                && py >= 0
-                && (px as u32) < img.width()
-                && (py as u32) < img.height()
-                && img.get_pixel(px as u32, py as u32)[3] >= ALPHA_INSIDE
-        })
-    })
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn write_fixture(dir: &Path, toml: &str) -> PathBuf {
-        let mut img = RgbaImage::new(40, 60);
-        for y in 5..55 {
-            for x in 10..30 {
-                img.put_pixel(x, y, image::Rgba([200, 50, 50, 255]));
-            }
-        }
-        img.save(dir.join("c.png")).unwrap();
-        let p = dir.join("c.toml");
-        std::fs::write(&p, toml).unwrap();
-        p
-    }
-
-    const OK: &str = "image = \"c.png\"\nbackground = \"#102030\"\n\n[[joint]]\nname = \"hip\"\n\
-        x = 20\ny = 40\n\n[[joint]]\nname = \"head\"\nx = 20\ny = 10\nparent = \"hip\"\nlayer = 2\n";
-
-    #[test]
-    fn reads_joints_layers_and_defaults() {
-        let d = tempfile::tempdir().unwrap();
-        let c = read_character(&write_fixture(d.path(), OK)).unwrap();
-        assert_eq!(c.skeleton.names, vec!["hip", "head"]);
-        assert_eq!(c.skeleton.parents, vec![None, Some(0)]);
-        assert_eq!(c.layers, vec![0, 2]);
-        assert_eq!(c.lines, vec![4, 9]);
-        assert_eq!(c.scale, Scale::Fit);
-        assert_eq!(c.backdrop, Backdrop::Colour([0x10, 0x20, 0x30]));
-        assert_eq!(c.rest[1], Point::new(20.0, 10.0));
-    }
-
-    fn message(toml: &str) -> String {
-        let d = tempfile::tempdir().unwrap();
-        let e = read_character(&write_fixture(d.path(), toml)).unwrap_err();
-        assert!(e.is_user_error(), "{e}");
-        e.to_string()
-    }
-
-    #[test]
-    fn errors_name_line_joint_and_fix() {
-        let m = message(&OK.replace("y = 10", "y = 70"));
-        assert!(
-            m.contains("line 9: joint \"head\"") && m.contains("outside"),
-            "{m}"
-        );
-        let m = message(&OK.replace("x = 20\ny = 10", "x = 2\ny = 10"));
-        assert!(m.contains("transparent"), "{m}");
-        let m = message(&OK.replace("c.png", "nope.png"));
-        assert!(m.contains("not found"), "{m}");
-        let m = message(&OK.replace("layer", "layr"));
-        assert!(m.contains("line 14") && m.contains("layr"), "{m}");
-        let m = message(&OK.replace("\"hip\"\nlayer", "\"hips\"\nlayer"));
-        assert!(m.contains("parent \"hips\""), "{m}");
-    }
-
-    #[test]
-    fn map_and_bones_are_checked_against_this_file() {
-        let m = message(&(OK.to_owned() + "\n[map]\nknee = \"left_knee\"\n"));
-        assert!(m.contains("[map] key \"knee\""), "{m}");
-        let m = message(&(OK.to_owned() + "\n[bones]\nhip = [\"a\", \"b\"]\n"));
-        assert!(
-            m.contains("[bones] key \"hip\"") && m.contains("with a parent"),
-            "{m}"
-        );
-        let m = message(&(OK.to_owned() + "\n[bones]\nhead = [\"a\"]\n"));
-        assert!(m.contains("two source joints"), "{m}");
-        let d = tempfile::tempdir().unwrap();
-        let text = OK.to_owned()
-            + "\n[map]\nhip = \"mid(l, r)\"\n\n[bones]\nhead = [\"mid(l, r)\", \"nose\"]\n";
-        let c = read_character(&write_fixture(d.path(), &text)).unwrap();
-        assert_eq!(c.map["hip"], "mid(l, r)");
-        assert_eq!(c.bones["head"], ("mid(l, r)".to_owned(), "nose".to_owned()));
-    }
-}
+mod tests;

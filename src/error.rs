@@ -51,12 +51,12 @@ pub enum Error {
     #[error("{0}")]
     Usage(String),
 
-    /// Reading or writing a file failed.
-    #[error("{}: {source}", path.display())]
+    /// Reading or writing a file failed. The OS message is part of the message, so it is not
+    /// also given as the error's `source` (which would print it twice down an error chain).
+    #[error("{}: {error}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
 
     /// Encoding a video failed.
@@ -82,10 +82,25 @@ impl Error {
     }
 
     /// Wraps an I/O error with the path it concerns.
-    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+    pub fn io(path: impl Into<PathBuf>, error: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            error,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_io_error_says_the_os_message_once() {
+        let os = std::io::Error::from(std::io::ErrorKind::NotFound);
+        let e = Error::io("a/b.txt", os);
+        let msg = e.to_string();
+        assert!(msg.starts_with("a/b.txt: "), "{msg}");
+        assert!(std::error::Error::source(&e).is_none(), "{msg}");
+        assert!(!e.is_user_error());
     }
 }

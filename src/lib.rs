@@ -12,7 +12,6 @@ pub mod atomic;
 pub mod background;
 pub mod batch;
 pub mod character;
-pub mod cli;
 pub mod decode;
 pub mod deform;
 #[cfg(feature = "ffmpeg")]

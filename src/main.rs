@@ -2,10 +2,10 @@
 //! failure, 130 interrupted by Ctrl-C).
 
 use clap::Parser;
+use cli::{BatchArgs, Cli, Command};
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mocap2d::app;
 use mocap2d::batch::{BatchProgress, ClipOutcome, Status};
-use mocap2d::cli::{BatchArgs, Cli, Command};
 use mocap2d::error::EXIT_INTERRUPTED;
 use mocap2d::progress::Progress;
 use std::io::IsTerminal;
@@ -13,6 +13,8 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
+
+mod cli;
 
 /// Set by the first Ctrl-C (SIGINT) or SIGTERM: work stops at its next frame (see [`Bars`]).
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -193,21 +195,7 @@ impl Drop for ClipBar<'_> {
 /// whether any clip failed (see [`mocap2d::batch::exit_code`]). Interrupted by Ctrl-C: one line
 /// saying how far it got, no table and no CSV, exit code 130.
 fn batch(a: BatchArgs, bars_on: bool) -> mocap2d::Result<ExitCode> {
-    let opts = mocap2d::batch::BatchOptions {
-        inputs: a.inputs.clone(),
-        seeds: mocap2d::batch::SeedTemplate::parse(&a.seeds)?,
-        jobs: a.jobs.map_or_else(
-            || std::thread::available_parallelism().map_or(1, |n| n.get()),
-            usize::from,
-        ),
-        shard: a.shard,
-        out_dir: a.out_dir.clone(),
-        fps: a.fps,
-        no_background: a.no_background,
-        params: mocap2d::cli::read_params(a.params.as_deref())?,
-        retarget: a.retarget.clone(),
-        render: a.render,
-    };
+    let opts = a.options()?;
     let plan = mocap2d::batch::plan(&opts)?;
     let summary_path = a.summary_path();
     let shard = a.shard.map(|s| format!(" (shard {s})")).unwrap_or_default();
@@ -241,35 +229,12 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
     match cli.command {
         Command::Batch(a) => return batch(a, bars.on),
         Command::Track(a) => {
-            let (seeds, dlc) = a.seed_source();
-            let opts = app::TrackOptions {
-                params: mocap2d::cli::read_params(a.params.as_deref())?,
-                clip: a.clip,
-                seeds,
-                dlc,
-                out: a.out,
-                fps: a.fps,
-                background: a.background,
-                no_background: a.no_background,
-                segment_len: a.segment_len,
-            };
-            let other = match a.replace {
-                true => app::OtherClip::Replace,
-                false => app::OtherClip::Refuse,
-            };
+            let (opts, other) = a.options()?;
             let s = app::track_into(&opts, other, &bars)?;
             print_summary("tracked", &s);
         }
         Command::Resume(a) => {
-            let opts = app::ResumeOptions {
-                params: match &a.params {
-                    Some(p) => Some(mocap2d::cli::read_params(Some(p))?),
-                    None => None,
-                },
-                run: a.run,
-                segment: a.segment,
-                clip: a.clip,
-            };
+            let opts = a.options()?;
             match app::resume(&opts, &bars)? {
                 Some(s) => print_summary("resumed:", &s),
                 None => eprintln!(
@@ -283,13 +248,7 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             print!("{}", app::report(&a.run)?.to_markdown());
         }
         Command::Synth(a) => {
-            let opts = mocap2d::synth::SynthOptions {
-                scenario: a.scenario,
-                width: a.size.0,
-                height: a.size.1,
-                seed: a.seed,
-                frames: a.frames,
-            };
+            let opts = a.options();
             opts.validate()?;
             let clip = mocap2d::synth::render(&opts);
             mocap2d::synth::write_clip(&clip, &a.out)?;
@@ -322,16 +281,7 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             );
         }
         Command::Render(a) => {
-            let opts = app::RenderOptions {
-                run: a.run,
-                target: a.target,
-                out: a.out,
-                frames_dir: a.frames_dir,
-                deform: mocap2d::deform::DeformOptions {
-                    area_preservation: !a.no_area_preservation,
-                    stage_two: true,
-                },
-            };
+            let opts = a.options();
             let s = app::render(&opts, &bars)?;
             let to: Vec<String> = [&opts.out, &opts.frames_dir]
                 .into_iter()
@@ -348,19 +298,8 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             );
         }
         Command::Export(a) => {
-            let keys = a.keys();
-            let s = app::export(&app::ExportOptions {
-                run: a.run,
-                format: a.format,
-                target: a.target,
-                out: a.out,
-                keys,
-                skeleton: a.skeleton.map(|path| app::UserSkeleton {
-                    path,
-                    animation: a.animation,
-                    bones: a.bone.into_iter().collect(),
-                }),
-            })?;
+            let format = a.format;
+            let s = app::export(&a.options())?;
             for line in &s.matches {
                 eprintln!("  {line}");
             }
@@ -369,7 +308,7 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 "exported {} joints over {} frames as {} -> {}",
                 s.joints,
                 s.frames,
-                a.format.name(),
+                format.name(),
                 files.join(" and ")
             );
             if !s.note.is_empty() {
@@ -377,14 +316,7 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             }
         }
         Command::Guide(a) => {
-            let opts = app::GuideOptions {
-                clip: a.clip,
-                frame: a.frame,
-                out: a.out,
-                seeds_out: a.seeds_out,
-                fps: a.fps,
-                background: a.background,
-            };
+            let opts = a.options();
             let s = app::guide(&opts)?;
             let seeds = opts
                 .seeds_out
@@ -461,15 +393,12 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INTERRUPTED)
         }
         Err(e) => {
-            let msg = e.to_string();
-            eprintln!("mocap2d: {msg}");
-            // Causes the message does not already say (an I/O error's is in it).
+            eprintln!("mocap2d: {e}");
+            // Each message is said once: a variant whose message includes a cause's (an I/O
+            // error's OS message) does not also give it as its source.
             let mut src = std::error::Error::source(&e);
             while let Some(s) = src {
-                let cause = s.to_string();
-                if !msg.contains(&cause) {
-                    eprintln!("  caused by: {cause}");
-                }
+                eprintln!("  caused by: {s}");
                 src = s.source();
             }
             ExitCode::from(if e.is_user_error() { 2 } else { 1 })

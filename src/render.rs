@@ -10,6 +10,10 @@
 use crate::geom::Point;
 use image::RgbaImage;
 
+mod renderer;
+
+pub use renderer::Renderer;
+
 /// A texture: the character image, premultiplied, as f32 (0–255 per channel).
 #[derive(Debug, Clone)]
 pub struct Texture {

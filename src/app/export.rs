@@ -3,7 +3,7 @@
 //! atomically. Spine and DragonBones also write the files their main file names (atlas, texture
 //! atlas, the character image copied) into `--out`'s folder, so that folder travels.
 
-use super::{animate::hash_file, run_frame, RETARGET_DIR};
+use super::retarget::{hash_file, run_frame, RETARGET_DIR};
 use crate::character::{read_character, Character};
 use crate::error::{Error, Result};
 use crate::export::keys::Keys;

@@ -1,12 +1,11 @@
 //! `mocap2d guide CLIP --frame N --out guide.png [--seeds-out starter.toml]`: the seeding guide
 //! of one frame (docs/method.md §6; see [`crate::review::guide`]).
 
-use super::{background_for, TrackOptions};
-use crate::decode;
+use crate::background::BackgroundChoice;
+use crate::decode::read_frame;
 use crate::error::{Error, Result};
 use crate::review::{draw, guide};
-use image::RgbImage;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Options of `mocap2d guide`.
 #[derive(Debug, Clone)]
@@ -32,24 +31,6 @@ pub struct GuideSummary {
     pub silhouette_px: u64,
 }
 
-/// Decodes frame `index` of `clip` (streaming through the frames before it).
-/// [`Error::Usage`] when the clip is shorter.
-pub fn read_frame(clip: &Path, fps: Option<f64>, index: u64) -> Result<RgbImage> {
-    let mut source = decode::open(clip, fps)?;
-    let mut n = 0u64;
-    while let Some(f) = source.next_frame()? {
-        if n == index {
-            return Ok(f);
-        }
-        n += 1;
-    }
-    Err(Error::Usage(format!(
-        "--frame {index} is beyond {}, which has {n} frames (0 to {}); give a frame of the clip",
-        clip.display(),
-        n.saturating_sub(1)
-    )))
-}
-
 /// `mocap2d guide`: checks the options, builds the background model as `track` would, finds the
 /// silhouette, skeleton and candidate joints of the frame, and writes the PNG (and the starter
 /// seed file). Nothing is written when an input is bad.
@@ -72,13 +53,12 @@ pub fn guide(opts: &GuideOptions) -> Result<GuideSummary> {
     }
     let frame = read_frame(&opts.clip, opts.fps, opts.frame)?;
     let (w, h) = frame.dimensions();
-    let track_opts = TrackOptions {
-        fps: opts.fps,
-        background: opts.background.clone(),
-        ..TrackOptions::new(&opts.clip, "")
+    let choice = match &opts.background {
+        Some(plate) => BackgroundChoice::Plate(plate.clone()),
+        None => BackgroundChoice::Median,
     };
-    let (bg, _) = background_for(&track_opts, w, h, None)?;
-    let bg = bg.expect("background_for gives a model unless --no-background");
+    let (bg, _) = choice.build(&opts.clip, opts.fps, w, h, None)?;
+    let bg = bg.expect("a median or a plate is a model");
     let mask = guide::silhouette(&frame, &bg);
     let area = mask.pixels().filter(|p| p.0[0] != 0).count() as u64;
     if area == 0 {

@@ -2,7 +2,7 @@
 //! K after the user corrected segment files. Segments before K keep their rows byte for byte;
 //! the previous `tracks.csv` goes to `history/`.
 
-use super::{median_background, TrackSummary};
+use super::track::TrackSummary;
 use crate::background::Background;
 use crate::decode;
 use crate::error::{Error, Result};
@@ -43,7 +43,14 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
     let _lock = crate::run::lock::RunLock::acquire(run_dir, "resume")?;
     let manifest_path = run_dir.join(RUN_TOML);
     let manifest = Manifest::read(&manifest_path)?;
+    if let Some(p) = &opts.params {
+        p.validate()?;
+    }
     let clip = check_inputs(opts, &manifest, &manifest_path)?;
+    manifest.params.validate().map_err(|e| Error::RunFolder {
+        path: manifest_path.clone(),
+        msg: format!("{e}; track again into a new folder"),
+    })?;
     let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
     let first = match pick_segment(opts, &manifest, run_dir)? {
         Some(k) => k,
@@ -293,20 +300,9 @@ fn background_of(
     clip: &Path,
     manifest_path: &Path,
 ) -> Result<Option<Background>> {
-    let bg = if m.background == "none" {
-        None
-    } else if let Some(plate) = m.background.strip_prefix("plate:") {
-        Some(Background::from_plate_file(
-            Path::new(plate),
-            m.width,
-            m.height,
-        )?)
-    } else {
-        // `median:N,rest` (cleared of the bodies resting on the seed frame) or the plain
-        // `median:N` of runs made before that existed.
-        let rest = m.background.ends_with(",rest").then_some(seeds);
-        Some(median_background(clip, Some(m.fps), rest)?.0)
-    };
+    let bg = m
+        .background
+        .rebuild(clip, Some(m.fps), m.width, m.height, seeds)?;
     let threshold = bg.as_ref().map_or(0, |b| b.threshold);
     if threshold != m.background_threshold {
         return Err(Error::RunFolder {

@@ -17,14 +17,14 @@ pub const DEFAULT_PORT: u16 = 8765;
 fn resume_hook(clip: Option<&Path>) -> Option<Box<ResumeFn>> {
     let clip = clip.map(Path::to_path_buf);
     Some(Box::new(move |run: &Path, k: u32| {
-        let opts = super::ResumeOptions {
+        let opts = super::resume::ResumeOptions {
             run: run.to_path_buf(),
             segment: Some(u64::from(k)),
             clip: clip.clone(),
             params: None,
         };
-        let done = super::resume(&opts, &NoProgress)?;
-        super::review(run, clip.as_deref(), &NoProgress)?;
+        let done = super::resume::resume(&opts, &NoProgress)?;
+        super::review::review(run, clip.as_deref(), &NoProgress)?;
         Ok(match done {
             Some(s) => format!(
                 "resumed from segment {k:03}: {} frames tracked; review/ refreshed. {}",

@@ -50,13 +50,7 @@ pub fn unfinished_track(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest>
 /// reports any real problem).
 fn same_inputs(run_dir: &Path, opts: &TrackOptions) -> Option<Manifest> {
     let m = Manifest::read(&run_dir.join("run.toml")).ok()?;
-    let background_same = if opts.no_background {
-        m.background == "none"
-    } else {
-        opts.background.is_none()
-            && m.background.starts_with("median:")
-            && m.background.ends_with(",rest")
-    };
+    let background_same = m.background.answers(&opts.background);
     let seeds = std::fs::read(&opts.seeds).ok()?;
     let same = m.tool == "mocap2d"
         && m.version == env!("CARGO_PKG_VERSION")

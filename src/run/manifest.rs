@@ -3,6 +3,7 @@
 //! many segments are tracked, and the hash of every segment file the tool wrote (a segment file
 //! with another hash was edited by the user: a correction).
 
+use crate::background::BackgroundSetting;
 use crate::error::{Error, Result};
 use crate::track::TrackParams;
 use serde::{Deserialize, Serialize};
@@ -37,9 +38,10 @@ pub struct Manifest {
     pub joints: usize,
     /// blake3 of the seed file as given.
     pub seeds_blake3: String,
-    /// `median:N,rest` (temporal median of N sampled frames, cleared of subjects at rest on the
-    /// seed frame; `median:N` from mocap2d before that: not cleared), `plate:PATH`, or `none`.
-    pub background: String,
+    /// The background model (`[background]`; a string such as `median:25,rest` in run
+    /// folders of earlier versions, still read).
+    #[serde(deserialize_with = "crate::background::deserialize_either")]
+    pub background: BackgroundSetting,
     pub background_threshold: u32,
     /// Frames per segment: a checkpoint and a file to correct (`segments/NNN.toml`) every this many frames
     /// from the seed frame on.
@@ -195,7 +197,7 @@ mod tests {
             seed_frame: 0,
             joints: 2,
             seeds_blake3: "cd".into(),
-            background: "none".into(),
+            background: BackgroundSetting::None,
             background_threshold: 0,
             segment_len: 5,
             config_blake3: String::new(),
@@ -229,6 +231,39 @@ mod tests {
             m.config_hash(),
             "progress is not config"
         );
+    }
+
+    #[test]
+    fn the_background_string_of_earlier_versions_reads_with_the_same_config_hash() {
+        let mut m = sample();
+        m.background = BackgroundSetting::Median {
+            samples: 25,
+            rest: true,
+        };
+        m.config_blake3 = m.config_hash();
+        let text = m.to_toml();
+        assert!(text.contains("[background]\nkind = \"median\"\nsamples = 25\nrest = true\n"));
+        // As mocap2d wrote it before: a string among the plain fields.
+        let old = text
+            .replace(
+                "\n[background]\nkind = \"median\"\nsamples = 25\nrest = true\n",
+                "",
+            )
+            .replace(
+                "background_threshold = ",
+                "background = \"median:25,rest\"\nbackground_threshold = ",
+            );
+        assert!(!old.contains("[background]"), "{old}");
+        let read = Manifest::parse(&old, Path::new("run.toml")).unwrap();
+        assert_eq!(read, m);
+        assert_eq!(read.config_hash(), m.config_blake3);
+        let e = Manifest::parse(
+            &old.replace("median:25,rest", "median"),
+            Path::new("run.toml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("median:N,rest"), "{e}");
     }
 
     #[test]

@@ -1,0 +1,166 @@
+//! Which background model a run uses: the one the user asks for ([`BackgroundChoice`]), built
+//! from the clip, and recorded in `run.toml` as a [`BackgroundSetting`] that `resume` rebuilds
+//! the same model from.
+
+use super::{Background, BackgroundSetting, Limb};
+use crate::decode;
+use crate::error::{Error, Result};
+use crate::seed::Seeds;
+use std::path::{Path, PathBuf};
+
+/// Frames sampled across the clip for the temporal-median clean plate.
+pub const BACKGROUND_SAMPLES: usize = 25;
+
+/// The background model the user asks for.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum BackgroundChoice {
+    /// The temporal median of frames sampled across the clip (the default).
+    #[default]
+    Median,
+    /// A clean plate: an image of the background alone, clip-sized (`--background PLATE`).
+    Plate(PathBuf),
+    /// No background subtraction (`--no-background`).
+    None,
+}
+
+impl BackgroundChoice {
+    /// The choice of the `--background PLATE` and `--no-background` flags.
+    pub fn from_flags(plate: Option<PathBuf>, no_background: bool) -> BackgroundChoice {
+        match (plate, no_background) {
+            (_, true) => BackgroundChoice::None,
+            (Some(p), false) => BackgroundChoice::Plate(p),
+            (None, false) => BackgroundChoice::Median,
+        }
+    }
+
+    /// Builds the model asked for, frames `width`×`height` of `clip` (read at `fps`); with
+    /// `seeds`, a median plate is cleared of the subjects that sat still on their seed frame
+    /// (see [`median_background`]). Returns it with the setting `run.toml` records.
+    pub fn build(
+        &self,
+        clip: &Path,
+        fps: Option<f64>,
+        width: u32,
+        height: u32,
+        seeds: Option<&Seeds>,
+    ) -> Result<(Option<Background>, BackgroundSetting)> {
+        match self {
+            BackgroundChoice::None => Ok((None, BackgroundSetting::None)),
+            BackgroundChoice::Plate(plate) => Ok((
+                Some(Background::from_plate_file(plate, width, height)?),
+                BackgroundSetting::Plate {
+                    path: plate.clone(),
+                },
+            )),
+            BackgroundChoice::Median => {
+                let (bg, setting) = median_background(clip, fps, seeds)?;
+                Ok((Some(bg), setting))
+            }
+        }
+    }
+}
+
+impl BackgroundSetting {
+    /// Rebuilds the model of a run that recorded this setting (`resume`), from its clip read at
+    /// `fps` and its seeds.
+    pub fn rebuild(
+        &self,
+        clip: &Path,
+        fps: Option<f64>,
+        width: u32,
+        height: u32,
+        seeds: &Seeds,
+    ) -> Result<Option<Background>> {
+        Ok(match self {
+            BackgroundSetting::None => None,
+            BackgroundSetting::Plate { path } => {
+                Some(Background::from_plate_file(path, width, height)?)
+            }
+            // Cleared of the bodies resting on the seed frame, or the plain median of runs
+            // made before that existed.
+            BackgroundSetting::Median { rest, .. } => {
+                Some(median_background(clip, fps, rest.then_some(seeds))?.0)
+            }
+        })
+    }
+
+    /// True when a run with this setting used the model `choice` asks for. A plate is never
+    /// taken for the same: its file may have changed since.
+    pub fn answers(&self, choice: &BackgroundChoice) -> bool {
+        match (self, choice) {
+            (BackgroundSetting::None, BackgroundChoice::None) => true,
+            (BackgroundSetting::Median { rest, .. }, BackgroundChoice::Median) => *rest,
+            _ => false,
+        }
+    }
+}
+
+/// [`Error::Clip`]: the clip opened but gave no frame.
+fn no_frames(clip: &Path) -> Error {
+    Error::Clip {
+        path: clip.to_owned(),
+        msg: "no frames: the clip is empty, or damaged from its first frame".into(),
+    }
+}
+
+/// The clip's temporal-median plate over [`BACKGROUND_SAMPLES`] sampled frames, and its
+/// setting for `run.toml`: `median:N`, or `median:N,rest` when `seeds` are given and the
+/// subjects that sat still on their seed frame (read at `fps`) are cleared from it
+/// ([`Background::clear_resting_subject`]).
+pub fn median_background(
+    clip: &Path,
+    fps: Option<f64>,
+    seeds: Option<&Seeds>,
+) -> Result<(Background, BackgroundSetting)> {
+    // The seed frame comes with the sample when one sequential decode passes it.
+    let (samples, at_seed) =
+        decode::sample_frames_and(clip, BACKGROUND_SAMPLES, seeds.map(|s| s.frame))?;
+    if samples.is_empty() {
+        return Err(no_frames(clip));
+    }
+    let mut bg = Background::fit(&samples)?;
+    let mut rest = false;
+    if let Some(seeds) = seeds {
+        let seed_frame = match at_seed {
+            Some(f) => f,
+            None => decode::read_frame(clip, fps, seeds.frame)?,
+        };
+        bg.clear_resting_subject(&samples, &seed_frame, &seed_bodies(seeds));
+        rest = true;
+    }
+    let samples = samples.len() as u32;
+    Ok((bg, BackgroundSetting::Median { samples, rest }))
+}
+
+/// Each body of `seeds` (a root and its descendants) as limbs on the seed frame: every bone,
+/// reaching half its child's rectangle (the larger side) around it, and every joint's own
+/// rectangle.
+fn seed_bodies(seeds: &Seeds) -> Vec<Vec<Limb>> {
+    let sk = &seeds.skeleton;
+    let boxes = seeds.boxes();
+    let half = |j: usize| 0.5 * boxes[j].w.max(boxes[j].h) as f32;
+    let root = |mut j: usize| {
+        while let Some(p) = sk.parents[j] {
+            j = p;
+        }
+        j
+    };
+    let roots: Vec<usize> = (0..sk.len()).filter(|&j| sk.parents[j].is_none()).collect();
+    roots
+        .iter()
+        .map(|&r| {
+            (0..sk.len())
+                .filter(|&j| root(j) == r)
+                .map(|j| {
+                    let c = boxes[j].centre();
+                    let a = sk.parents[j].map_or(c, |p| boxes[p].centre());
+                    Limb {
+                        a,
+                        b: c,
+                        radius: half(j),
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
