@@ -28,6 +28,7 @@ pub mod manifest;
 pub mod report;
 pub mod segments;
 pub mod session;
+pub mod suggest;
 pub mod tracks;
 
 pub use manifest::{hash_clip, ClipId, Manifest, SegmentRecord};

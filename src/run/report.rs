@@ -65,6 +65,10 @@ pub struct Report {
     /// Segment files of the run: one per segment, and one more on the clip's last frame when
     /// the last segment has more than one frame.
     pub files: u64,
+    /// Every frame's need (about how many of its joints are far off), in frame order.
+    pub frame_need: Vec<(u64, f32)>,
+    /// Frames worth keying next, most needy first ([`crate::run::suggest`]).
+    pub suggested: Vec<u64>,
 }
 
 impl Report {
@@ -239,6 +243,16 @@ impl Report {
                 let _ = writeln!(s);
             }
         }
+        if !self.suggested.is_empty() {
+            let list: Vec<String> = self.suggested.iter().map(u64::to_string).collect();
+            let _ = writeln!(
+                s,
+                "Frames worth keying next, most needy first: {}. A key on a frame (in \
+                 `keys.toml`, any subset of joints) pulls the frames around it; then run \
+                 `mocap2d resume RUN --segment K` from the segment that holds the first.\n",
+                list.join(", ")
+            );
+        }
         let quiet: Vec<String> = self
             .segments
             .iter()
@@ -258,6 +272,7 @@ pub struct Builder<'a> {
     plan: &'a Plan,
     corrected: &'a [bool],
     segments: Vec<SegmentNeed>,
+    frame_need: Vec<(u64, f32)>,
 }
 
 impl<'a> Builder<'a> {
@@ -269,6 +284,7 @@ impl<'a> Builder<'a> {
             plan,
             corrected,
             segments: Vec::new(),
+            frame_need: Vec::new(),
         }
     }
 
@@ -298,7 +314,9 @@ impl<'a> Builder<'a> {
         }
         let s = self.segments.last_mut().expect("pushed above");
         s.last = f;
-        s.need += weight.iter().sum::<f32>();
+        let need = weight.iter().sum::<f32>();
+        s.need += need;
+        self.frame_need.push((f, need));
         for (jd, &b) in s.joints.iter_mut().zip(mask) {
             if b != 0 {
                 if jd.frames == 0 {
@@ -323,6 +341,8 @@ impl<'a> Builder<'a> {
         Report {
             segments: self.segments,
             files,
+            frame_need: self.frame_need,
+            suggested: Vec::new(),
         }
     }
 }
@@ -334,6 +354,9 @@ pub struct Tally {
     pub frames: u64,
     pub status: std::collections::BTreeMap<&'static str, u64>,
 }
+
+/// Frames `report.md` suggests keying next.
+pub const SUGGESTED: usize = 10;
 
 /// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`. The
 /// file is read a frame at a time (see [`Stream`]): memory does not grow with the clip.
@@ -375,7 +398,20 @@ pub fn for_run(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Tal
         builder.push(j.frame, &j.mask, &j.weight);
     }
     let files = manifest.segment.len() as u64;
-    Ok((tally, builder.finish(files, &th)))
+    let mut report = builder.finish(files, &th);
+    // Frames the user has keyed already: the seed frame, corrected segment files, keys.toml.
+    let mut keyed = vec![manifest.seed_frame];
+    for (k, c) in corrected.iter().enumerate() {
+        if *c {
+            keyed.push(plan.first_frame(k as u64));
+        }
+    }
+    // An unreadable keys.toml is resume's to report; here it only keys nothing.
+    let keys = crate::run::keys::read(run_dir, &names, manifest.width, manifest.height, None)
+        .unwrap_or_default();
+    keyed.extend(keys.iter().map(|k| k.frame));
+    report.suggested = crate::run::suggest::suggest(&report.frame_need, &keyed, SUGGESTED);
+    Ok((tally, report))
 }
 
 #[cfg(test)]
