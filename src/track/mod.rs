@@ -32,6 +32,7 @@ mod motion;
 mod params;
 pub mod pixels;
 mod redetect;
+pub mod rooted;
 pub mod scale;
 pub mod search;
 pub mod solve;

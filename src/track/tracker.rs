@@ -5,6 +5,7 @@ use super::gapfill::GapFiller;
 use super::model::Model;
 use super::motion::{Motion, Prediction};
 use super::pixels::{halve_all, Image, Level, Pyramid};
+use super::rooted::{self, AngleOf};
 use super::scale::WorkScale;
 use super::strip::{Fit, Placement, Strip, View};
 use super::{JointEstimate, Status, TrackParams};
@@ -34,6 +35,13 @@ pub const HIDDEN_AT_KEYFRAME: f32 = 0.2;
 /// Tracks all joints of a seed file frame by frame.
 pub struct Tracker {
     pub(super) params: TrackParams,
+    /// The user's skeleton (the seed file's parents, its joints parents first), which rows and
+    /// gap filling follow.
+    user_parents: Vec<Option<usize>>,
+    user_order: Vec<usize>,
+    /// Whose angle gives each joint's angle in the user's skeleton.
+    angle_of: Vec<AngleOf>,
+    /// The skeleton followed: the user's, each body rooted at its centre ([`rooted`]).
     pub(super) parents: Vec<Option<usize>>,
     pub(super) children: Vec<Vec<usize>>,
     /// Joints, parents before children.
@@ -109,7 +117,12 @@ impl Tracker {
         background: Option<Background>,
         work: WorkScale,
     ) -> Self {
-        let seeds = &work.seeds(seeds);
+        // The tracker follows each body from its centre, whatever the user's root; rows keep the
+        // user's angles (`super::rooted`).
+        let user = seeds.skeleton.clone();
+        let mut seeds = work.seeds(seeds);
+        seeds.skeleton = rooted::centred(&user);
+        let seeds = &seeds;
         let seed_frame: &RgbImage = &work.image(seed_frame);
         let background = background.map(|b| work.background(b));
         // The levels that count the frame's resolution stay where they are in the frame: the
@@ -152,7 +165,11 @@ impl Tracker {
         let plate = background
             .as_ref()
             .map_or(Vec::new(), |b| halve_all(&b.plate, model.levels));
+        let angle_of = rooted::angle_of(&user, sk, params.rotate_roots);
         Tracker {
+            user_parents: user.parents.clone(),
+            user_order: user.topo_order(),
+            angle_of,
             params,
             parents: sk.parents.clone(),
             children,
@@ -201,7 +218,7 @@ impl Tracker {
 
     /// A gap filler for this skeleton, holding at most `max_gap` frames back.
     pub fn gap_filler_over(&self, max_gap: usize) -> GapFiller {
-        GapFiller::new(self.parents.clone(), self.order.clone(), max_gap)
+        GapFiller::new(self.user_parents.clone(), self.user_order.clone(), max_gap)
     }
 
     /// The resolution this tracker works at.
@@ -214,8 +231,13 @@ impl Tracker {
     pub fn current(&self) -> Vec<JointEstimate> {
         self.joints
             .iter()
-            .map(|j| JointEstimate {
+            .zip(&self.angle_of)
+            .map(|(j, of)| JointEstimate {
                 pos: self.work.to_frame(j.last.pos),
+                angle_rad: match *of {
+                    AngleOf::Joint(k) => self.joints[k].last.angle_rad,
+                    AngleOf::Zero => 0.0,
+                },
                 ..j.last
             })
             .collect()
