@@ -136,7 +136,7 @@ impl Strip {
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn coarse_cost_until_avx2(
+    pub(super) unsafe fn coarse_cost_until_avx2(
         &self,
         v: &View,
         p: Point,
@@ -149,7 +149,7 @@ impl Strip {
 
     /// [`Strip::coarse_cost_until`] for any CPU (inlined into each compiled version).
     #[inline(always)]
-    fn coarse_cost_until_any(
+    pub(super) fn coarse_cost_until_any(
         &self,
         v: &View,
         p: Point,
@@ -347,13 +347,27 @@ impl Strip {
     /// The CPU must have AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn normal_avx2(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
+    pub(super) unsafe fn normal_avx2(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        weight: f32,
+        widen: f32,
+    ) -> Normal {
         self.normal_any(v, p, c, weight, widen)
     }
 
     /// [`Strip::normal`] for any CPU (inlined into each compiled version).
     #[inline(always)]
-    fn normal_any(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
+    pub(super) fn normal_any(
+        &self,
+        v: &View,
+        p: Point,
+        c: Point,
+        weight: f32,
+        widen: f32,
+    ) -> Normal {
         let (img, gain) = (&v.img, v.gain);
         let place = self.placement(p, c);
         let inv = self.inv_scale() / (widen * widen);

@@ -216,3 +216,220 @@ fn learns_the_lengths_a_bone_is_seen_at_only_where_it_fits() {
     s.learn(&views, (p2, c2), &[None], 0.1, 0.5, (5.0, 40.0), &fit);
     assert_eq!(s.seen_lengths(), (lo, hi));
 }
+
+/// A deterministic pseudo-random stream (SplitMix64): the tests need no `rand`.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[lo, hi)`.
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * ((self.next() >> 40) as f32 / (1u64 << 24) as f32)
+    }
+
+    fn coin(&mut self) -> bool {
+        self.next() & 1 == 1
+    }
+}
+
+/// A textured `w × h` frame: smooth waves of random phase and frequency plus pixel noise.
+fn random_frame(rng: &mut Rng, w: u32, h: u32) -> RgbImage {
+    let waves: Vec<[f32; 4]> = (0..9)
+        .map(|_| {
+            [
+                rng.range(0.02, 0.4),
+                rng.range(0.02, 0.4),
+                rng.range(0.0, 6.3),
+                rng.range(20.0, 70.0),
+            ]
+        })
+        .collect();
+    let mut img = RgbImage::new(w, h);
+    for (x, y, px) in img.enumerate_pixels_mut() {
+        for ch in 0..3 {
+            let [fx, fy, ph, amp] = waves[3 * ch + (x as usize + y as usize) % 3];
+            let v = 128.0 + amp * (fx * x as f32 + fy * y as f32 + ph).sin() + rng.range(-8.0, 8.0);
+            px[ch] = v.clamp(0.0, 255.0) as u8;
+        }
+    }
+    img
+}
+
+/// `frame` with a random half of its pixels replaced (the rest within a few levels): a plate
+/// that some samples match and some do not.
+fn random_plate(rng: &mut Rng, frame: &RgbImage) -> RgbImage {
+    let mut plate = frame.clone();
+    for px in plate.pixels_mut() {
+        let far = rng.coin();
+        for ch in 0..3 {
+            px[ch] = if far {
+                (rng.next() & 255) as u8
+            } else {
+                (px[ch] as f32 + rng.range(-4.0, 4.0)).clamp(0.0, 255.0) as u8
+            };
+        }
+    }
+    plate
+}
+
+/// Every AVX2 build of a strip cost (`#[target_feature(enable = "avx2")]`: the coarse cost with
+/// its early stop, the Gauss–Newton normal equations) gives the bits of the portable build, over
+/// random strips (bones and patches, thinning with length or not, random sample weights, trusted
+/// plate or not), images (odd sizes, every pyramid level), plates (none, at the frame's level:
+/// the fast path, at another level: the general one) and poses (mirrored or not, partly or
+/// wholly outside the frame, degenerate). The early stop is compared call by call: the lower
+/// bounds it was asked about and whether it stopped.
+#[test]
+fn avx2_builds_give_the_portable_bits() {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("note: this CPU has no AVX2; the AVX2 builds are not compared");
+            return;
+        }
+        let mut rng = Rng(0x5EED_0030);
+        let (mut calls, mut stopped, mut outside) = (0usize, 0usize, 0usize);
+        for round in 0..24 {
+            let (w, h) = (61 + 2 * (round % 5) as u32, 47 + (round % 3) as u32);
+            let seed = random_frame(&mut rng, w, h);
+            let frame = random_frame(&mut rng, w, h);
+            let plate_img = random_plate(&mut rng, &frame);
+            let (sp, fp, pp) = (
+                Pyramid::new(&seed, LEVELS),
+                Pyramid::new(&frame, LEVELS),
+                Pyramid::new(&plate_img, LEVELS),
+            );
+            let (wf, hf) = (w as f32, h as f32);
+            for _ in 0..6 {
+                let shape = if rng.range(0.0, 1.0) < 0.8 {
+                    Shape::Bone
+                } else {
+                    Shape::Patch
+                };
+                let a = Point::new(rng.range(12.0, wf - 12.0), rng.range(12.0, hf - 12.0));
+                let b = Point::new(rng.range(12.0, wf - 12.0), rng.range(12.0, hf - 12.0));
+                let ext = Extent {
+                    a,
+                    b: if shape == Shape::Bone { b } else { a },
+                    ext_a: rng.range(0.0, 6.0) + if shape == Shape::Patch { 4.0 } else { 0.0 },
+                    ext_b: rng.range(0.0, 6.0),
+                    half_width: rng.range(2.0, 7.0),
+                };
+                let spec = StripSpec {
+                    max_samples: 60 + (rng.next() % 300) as usize,
+                    coarse_samples: 8 + (rng.next() % 60) as usize,
+                    sigma: rng.range(5.0, 30.0),
+                    width_exponent: if rng.coin() { 0.0 } else { rng.range(0.2, 1.0) },
+                };
+                let child = if shape == Shape::Bone { 1 } else { 0 };
+                let share = |x: f32, y: f32| ((x * 0.37 + y * 0.61).sin() + 1.0) * 1.5;
+                let Some(mut s) = Strip::sample(&sp, shape, (0, child), ext, &spec, &[], &share)
+                else {
+                    continue;
+                };
+                // Sample weights of every kind: none, partial, full.
+                for r in s.rel.iter_mut() {
+                    *r = rng.range(0.0, 1.2).min(1.0);
+                }
+                s.trust_plate = rng.range(0.0, 1.0) < 0.75;
+                s.mirrored = rng.coin();
+                s.refresh_coarse();
+                for lv in 0..LEVELS {
+                    for plate_kind in 0..3 {
+                        let plate = match plate_kind {
+                            0 => None,
+                            1 => Some(pp.level(lv)),
+                            _ => Some(pp.level((lv + 1) % LEVELS)),
+                        };
+                        let v = View {
+                            img: fp.level(lv),
+                            plate,
+                            gain: rng.range(0.8, 1.25),
+                            bg_inv: 1.0 / (3.0 * rng.range(2.0, 12.0).powi(2)),
+                        };
+                        for _ in 0..4 {
+                            // Poses reaching up to 40 px outside the frame; now and then one
+                            // wholly outside, or with both joints at one point.
+                            let mut pt = || {
+                                Point::new(rng.range(-40.0, wf + 40.0), rng.range(-40.0, hf + 40.0))
+                            };
+                            let (p, mut c) = (pt(), pt());
+                            match rng.next() % 8 {
+                                0 => c = p,
+                                1 => c = Point::new(wf + 500.0, -300.0),
+                                _ => {}
+                            }
+                            outside += s
+                                .probe(&v, p, c)
+                                .iter()
+                                .filter(|q| q.2.is_infinite())
+                                .count()
+                                .min(1);
+                            for mirrored in [false, true] {
+                                let limit = match rng.next() % 3 {
+                                    0 => f32::INFINITY,
+                                    _ => rng.range(0.0, 1.0),
+                                };
+                                let run = |avx2: bool| {
+                                    let asked = std::cell::RefCell::new(Vec::new());
+                                    let stop = |m: f32| {
+                                        asked.borrow_mut().push(m.to_bits());
+                                        m >= limit
+                                    };
+                                    // SAFETY: the CPU has AVX2 (checked above).
+                                    let cost = if avx2 {
+                                        unsafe {
+                                            s.coarse_cost_until_avx2(&v, p, c, mirrored, stop)
+                                        }
+                                    } else {
+                                        s.coarse_cost_until_any(&v, p, c, mirrored, stop)
+                                    };
+                                    (cost.map(f32::to_bits), asked.into_inner())
+                                };
+                                let (any, avx2) = (run(false), run(true));
+                                assert_eq!(
+                                    any, avx2,
+                                    "coarse cost, round {round}, level {lv}, plate {plate_kind}, \
+                                     pose {p:?} {c:?}, mirrored {mirrored}, limit {limit}"
+                                );
+                                calls += 1;
+                                stopped += any.0.is_none() as usize;
+                            }
+                            let weight = rng.range(0.1, 100.0);
+                            let widen = [1.0, 2.0, 4.0][(rng.next() % 3) as usize];
+                            let bits = |n: Normal| {
+                                let mut out = vec![n.cost.to_bits()];
+                                out.extend(n.g.iter().map(|g| g.to_bits()));
+                                out.extend(n.h.iter().flatten().map(|h| h.to_bits()));
+                                out
+                            };
+                            let any = bits(s.normal_any(&v, p, c, weight, widen));
+                            // SAFETY: the CPU has AVX2 (checked above).
+                            let avx2 = bits(unsafe { s.normal_avx2(&v, p, c, weight, widen) });
+                            assert_eq!(
+                                any, avx2,
+                                "normal equations, round {round}, level {lv}, plate {plate_kind}, \
+                                 pose {p:?} {c:?}, weight {weight}, widen {widen}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!("{calls} coarse costs ({stopped} stopped early, {outside} poses partly outside)");
+        // The cases the comparison is for did occur.
+        assert!(calls > 1000, "{calls} coarse costs compared");
+        assert!(
+            stopped > calls / 20 && stopped < calls * 19 / 20,
+            "{stopped} of {calls} stopped early"
+        );
+        assert!(outside > calls / 10, "{outside} poses partly outside");
+    }
+}
