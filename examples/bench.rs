@@ -1,24 +1,37 @@
-//! Throughput of each stage of `mocap2d track` on one or more clips, against FFmpeg's own decode.
+//! Throughput of each stage of `mocap2d track` on one or more clips, against FFmpeg's own decode
+//! to RGB: the rows of issue 30's table, measured in one run.
 //!
-//!     cargo run --release --example bench -- CLIP_DIR... [--reps 3] [--bin target/release/mocap2d]
+//!     cargo run --release --example bench -- [--reps 3] [--bin target/release/mocap2d] \
+//!         ROW...
 //!
-//! Each CLIP_DIR holds `clip.mp4` and `joints.toml` (as `mocap2d synth` writes them). Every stage
-//! runs `--reps` times; prints one markdown table, a row per clip and stage, of the median
-//! frames/s, its ratio to our decode of that clip and to the `ffmpeg` CLI, and the peak RSS.
-//! `scripts/bench` renders the clips (640x360 and 1280x720) and runs this.
+//! where each ROW is a clip folder (holding `clip.mp4` and `joints.toml`, as `mocap2d synth`
+//! writes them) followed by its own options:
 //!
-//! Peak RSS of in-process stages is VmHWM from /proc/self/status, reset before each stage by
-//! writing 5 to /proc/self/clear_refs (if the kernel refuses, it is cumulative: marked "≤").
-//! Child processes (`ffmpeg`, the `mocap2d` binary) are measured with GNU `/usr/bin/time -f %M`.
+//!     DIR [--label TEXT] [--keys-every N --gt LABELS.csv] [--target-fps F | --target-ratio R]
+//!
+//! `--keys-every N --gt LABELS.csv`: the clip is tracked with a key every N frames, as a user
+//! correcting every segment would (`track --segment-len N`, `scripts/keys-from-labels RUN
+//! LABELS.csv`, then `resume RUN --segment 0`; the end-to-end figure is that `resume`).
+//! `--target-fps F`: the end to end must reach F frames/s; `--target-ratio R`: R × FFmpeg's
+//! decode to RGB.
+//!
+//! Every stage runs `--reps` times; the table holds medians. Stages (frames/s over the clip):
+//! decode (`decode::open` + `next_frame` to RGB, in process), plate (the temporal-median
+//! background `track` builds), tracking (`run::session::Session::run`, the loop `track` and
+//! `resume` run, over frames already decoded into memory; it writes each segment's rows and
+//! state as it goes), writing (what the run writes at its end: `tracks.csv` joined from the
+//! segments, `report.md`, `run.toml`), end to end (the `mocap2d` binary as a child process, wall
+//! clock, start-up included) and FFmpeg (`ffmpeg -i clip -pix_fmt rgb24 -f rawvideo /dev/null`,
+//! wall clock). Peak RSS of the end to end is GNU `/usr/bin/time -f %M` when present.
 
 use anyhow::{bail, Context, Result};
 use mocap2d::app::{self, TrackOptions};
-use mocap2d::background::{BackgroundChoice, BACKGROUND_SAMPLES};
+use mocap2d::background::BackgroundChoice;
 use mocap2d::decode;
 use mocap2d::progress::NoProgress;
 use mocap2d::run::manifest::RUN_TOML;
 use mocap2d::run::session::Session;
-use mocap2d::run::Manifest;
+use mocap2d::run::{report, segments, Manifest};
 use mocap2d::seed::read_seeds;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -26,40 +39,86 @@ use std::time::Instant;
 
 const GNU_TIME: &str = "/usr/bin/time";
 
-const USAGE: &str = "usage: bench CLIP_DIR... [--reps N] [--bin PATH]";
+const USAGE: &str = "usage: bench [--reps N] [--bin PATH] DIR [--label TEXT] \
+                     [--keys-every N --gt LABELS.csv] [--target-fps F | --target-ratio R] [DIR ...]";
 
-struct Row {
-    stage: &'static str,
-    fps: f64,
-    /// Peak resident set size, formatted.
-    rss: String,
-    what: String,
+/// What a row must reach.
+#[derive(Clone, Copy)]
+enum Target {
+    /// End to end, frames/s.
+    Fps(f64),
+    /// End to end over FFmpeg's decode to RGB.
+    Ratio(f64),
 }
 
-/// One clip's rows and what the ratios are taken against.
-struct ClipBench {
+/// One row asked for on the command line.
+struct Spec {
     dir: PathBuf,
+    label: Option<String>,
+    keys: Option<(u64, PathBuf)>,
+    target: Option<Target>,
+}
+
+/// One row measured.
+struct RowBench {
+    label: String,
     width: u32,
     height: u32,
     frames: u64,
     joints: usize,
-    decode_fps: f64,
-    cli_fps: f64,
-    rows: Vec<Row>,
+    keyframes: Option<usize>,
+    decode: f64,
+    plate: f64,
+    tracking: f64,
+    writing: f64,
+    end_to_end: f64,
+    end_rss: String,
+    ffmpeg: f64,
+    target: Option<Target>,
 }
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
-    let (mut dirs, mut reps, mut bin) = (Vec::new(), 3, None);
+    let (mut specs, mut reps, mut bin) = (Vec::<Spec>::new(), 3, None);
+    let mut keys_every = None;
     while let Some(a) = args.next() {
-        match a.as_str() {
-            "--reps" => reps = args.next().context("--reps N")?.parse()?,
-            "--bin" => bin = Some(PathBuf::from(args.next().context("--bin PATH")?)),
-            _ if !a.starts_with('-') => dirs.push(PathBuf::from(a)),
+        let last = specs.last_mut();
+        match (a.as_str(), last) {
+            ("--reps", _) => reps = args.next().context("--reps N")?.parse()?,
+            ("--bin", _) => bin = Some(PathBuf::from(args.next().context("--bin PATH")?)),
+            ("--label", Some(s)) => s.label = Some(args.next().context("--label TEXT")?),
+            ("--keys-every", Some(_)) => {
+                keys_every = Some(args.next().context("--keys-every N")?.parse::<u64>()?)
+            }
+            ("--gt", Some(s)) => {
+                let n = keys_every
+                    .take()
+                    .context("--gt goes after --keys-every N")?;
+                s.keys = Some((n, PathBuf::from(args.next().context("--gt LABELS.csv")?)));
+            }
+            ("--target-fps", Some(s)) => {
+                s.target = Some(Target::Fps(args.next().context("--target-fps F")?.parse()?))
+            }
+            ("--target-ratio", Some(s)) => {
+                s.target = Some(Target::Ratio(
+                    args.next().context("--target-ratio R")?.parse()?,
+                ))
+            }
+            (_, _) if !a.starts_with('-') => {
+                if keys_every.is_some() {
+                    bail!("--keys-every needs --gt LABELS.csv");
+                }
+                specs.push(Spec {
+                    dir: PathBuf::from(a),
+                    label: None,
+                    keys: None,
+                    target: None,
+                })
+            }
             _ => bail!(USAGE),
         }
     }
-    if dirs.is_empty() || reps == 0 {
+    if specs.is_empty() || reps == 0 || keys_every.is_some() {
         bail!(USAGE);
     }
     // target/release/examples/bench -> target/release/mocap2d
@@ -70,88 +129,100 @@ fn main() -> Result<()> {
             .unwrap_or(Path::new("."))
             .join("mocap2d")
     });
-    let resettable = reset_peak();
-    let mut notes = Vec::new();
-    let mut clips = Vec::new();
-    for dir in &dirs {
-        clips.push(bench_clip(dir, reps, &bin, &mut notes)?);
+    if !bin.is_file() {
+        bail!("{}: not built (cargo build --release)", bin.display());
+    }
+    let mut rows = Vec::new();
+    for s in &specs {
+        rows.push(bench_row(s, reps, &bin)?);
     }
 
-    println!("### Throughput per stage (frames/s: median of {reps} runs)\n");
-    for c in &clips {
+    println!("### Throughput per stage (frames/s, median of {reps} runs)\n");
+    println!(
+        "| row | clip | decode | plate | tracking | writing | end to end | FFmpeg → RGB | \
+         end to end ÷ FFmpeg | target | peak RSS |"
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|");
+    for r in &rows {
+        let ratio = r.end_to_end / r.ffmpeg;
+        let target = match r.target {
+            None => "–".to_string(),
+            Some(Target::Fps(f)) => format!(
+                "≥ {f:.0} fps: {}",
+                if r.end_to_end >= f {
+                    "met"
+                } else {
+                    "**not met**"
+                }
+            ),
+            Some(Target::Ratio(x)) => format!(
+                "≥ {x:.2}× FFmpeg: {}",
+                if ratio >= x { "met" } else { "**not met**" }
+            ),
+        };
+        let keyframes = r.keyframes.map_or("?".into(), |k| k.to_string());
         println!(
-            "- {}x{}: `{}`, {} frames, {} joints",
-            c.width,
-            c.height,
-            c.dir.display(),
-            c.frames,
-            c.joints
+            "| {} | {}x{}, {} frames, {} joints, {} keyframes | {:.1} | {:.1} | {:.1} | {:.0} | \
+             {:.1} | {:.1} | {:.2} | {} | {} |",
+            r.label,
+            r.width,
+            r.height,
+            r.frames,
+            r.joints,
+            keyframes,
+            r.decode,
+            r.plate,
+            r.tracking,
+            r.writing,
+            r.end_to_end,
+            r.ffmpeg,
+            ratio,
+            target,
+            r.end_rss
         );
     }
     println!();
-    println!("| size | stage | frames/s | × decode | × ffmpeg CLI | peak RSS |");
-    println!("|---|---|---:|---:|---:|---:|");
-    for c in &clips {
-        for r in &c.rows {
-            println!(
-                "| {}x{} | {} | {:.1} | {:.2} | {:.2} | {} |",
-                c.width,
-                c.height,
-                r.stage,
-                r.fps,
-                r.fps / c.decode_fps,
-                r.fps / c.cli_fps,
-                r.rss
-            );
-        }
-    }
-    println!();
-    // What each stage times: the same for every clip, apart from the background's milliseconds.
-    for (i, r) in clips[0].rows.iter().enumerate() {
-        let what = if r.stage == "background" {
-            let ms: Vec<String> = clips
-                .iter()
-                .map(|c| {
-                    let fps = c.rows[i].fps;
-                    format!(
-                        "{:.0} ms at {}x{}",
-                        1000.0 * c.frames as f64 / fps,
-                        c.width,
-                        c.height
-                    )
-                })
-                .collect();
-            format!("{} ({})", r.what, ms.join(", "))
-        } else {
-            r.what.clone()
-        };
-        println!("- **{}**: {what}", r.stage);
-    }
-    if !resettable {
-        notes.push("/proc/self/clear_refs refused: in-process peak RSS is cumulative over the stages above it".into());
-    }
+    println!(
+        "- **decode**: `decode::open` + `next_frame` to RGB, all frames, in process\n\
+         - **plate**: `BackgroundChoice::Median.build` (what `track` builds before tracking), as \
+         frames/s over the clip\n\
+         - **tracking**: `run::session::Session::run` (what `track` and `resume` run after the \
+         plate) over frames decoded into memory beforehand; includes each segment's rows and \
+         state written as it goes\n\
+         - **writing**: the run's end: `tracks.csv` joined from the segments, `report.md`, \
+         `run.toml`\n\
+         - **end to end**: the `mocap2d` binary as a child process, wall clock incl. start-up \
+         (`track`; for a keyed row `resume RUN --segment 0` after the keys are written)\n\
+         - **FFmpeg → RGB**: `ffmpeg -i clip -pix_fmt rgb24 -f rawvideo /dev/null`, wall clock\n\
+         - **peak RSS**: of the end to end (GNU time)"
+    );
     if !Path::new(GNU_TIME).is_file() {
-        notes.push(format!(
-            "{GNU_TIME} missing (apt package `time`): no peak RSS for child processes"
-        ));
-    }
-    for n in notes {
-        println!("\n_{n}_");
+        println!("\n_{GNU_TIME} missing (apt package `time`): no peak RSS_");
     }
     println!();
     Ok(())
 }
 
-/// Runs every stage on the clip folder `dir`; `notes` collects what the table cannot show.
-fn bench_clip(dir: &Path, reps: usize, bin: &Path, notes: &mut Vec<String>) -> Result<ClipBench> {
+/// Runs every stage of the row `spec`.
+fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
+    let dir = &spec.dir;
     let clip = dir.join("clip.mp4");
     let seeds_path = dir.join("joints.toml");
     let (seeds, _) = read_seeds(&seeds_path)?;
-    let mut rows = Vec::new();
+    let utf8 = |p: &Path| -> Result<String> {
+        Ok(p.to_str()
+            .with_context(|| format!("{}: not UTF-8", p.display()))?
+            .to_owned())
+    };
+    let clip_arg = utf8(&clip)?;
+    let label = spec
+        .label
+        .clone()
+        .unwrap_or_else(|| dir.display().to_string());
+    eprintln!("== {label}");
 
-    // decode: FFmpeg (ffmpeg-next) decode + conversion to RGB, nothing else.
     let mut frames = 0u64;
-    let (fps, rss) = stage("decode", reps, || {
+    let decode = stage("decode", reps, || {
         let t = Instant::now();
         let mut src = decode::open(&clip, None)?;
         frames = 0;
@@ -160,108 +231,97 @@ fn bench_clip(dir: &Path, reps: usize, bin: &Path, notes: &mut Vec<String>) -> R
         }
         Ok((frames, t.elapsed().as_secs_f64()))
     })?;
-    let decode_fps = fps;
     let info = decode::open(&clip, None)?.info().clone();
-    rows.push(Row {
-        stage: "decode",
-        fps,
-        rss,
-        what: "`decode::open` + `next_frame` to RGB, all frames".into(),
-    });
 
-    // ffmpeg CLI: the external reference (decode only, no conversion to RGB).
-    let clip_arg = clip.to_str().context("clip path is not UTF-8")?;
     let ffmpeg = [
-        "ffmpeg", "-v", "error", "-threads", "0", "-i", clip_arg, "-f", "null", "-",
+        "ffmpeg",
+        "-v",
+        "error",
+        "-y",
+        "-i",
+        &clip_arg,
+        "-pix_fmt",
+        "rgb24",
+        "-f",
+        "rawvideo",
+        "/dev/null",
     ];
-    let (cli_fps, rss) = child_stage("ffmpeg CLI", reps, frames, &ffmpeg)?;
-    rows.push(Row {
-        stage: "ffmpeg CLI",
-        fps: cli_fps,
-        rss,
-        what: "`ffmpeg -threads 0 -i clip.mp4 -f null -`, wall clock; no RGB conversion".into(),
-    });
+    let (ffmpeg, _) = child_stage("ffmpeg to RGB", reps, frames, &ffmpeg)?;
 
-    // background: the model `track` builds (sampled frames, temporal median, cleared of the
-    // subjects at rest on the seed frame).
     let mut bg = None;
-    let (fps, rss) = stage("background", reps, || {
+    let plate = stage("plate", reps, || {
         let t = Instant::now();
         let (model, _) =
             BackgroundChoice::Median.build(&clip, None, info.width, info.height, Some(&seeds))?;
         bg = model;
         Ok((frames, t.elapsed().as_secs_f64()))
     })?;
-    rows.push(Row {
-        stage: "background",
-        fps,
-        rss,
-        what: format!(
-            "`BackgroundChoice::Median.build` ({BACKGROUND_SAMPLES} sampled frames, median, the \
-             resting subjects cleared), as frames/s over the clip"
-        ),
-    });
 
-    // track: the whole command, in process.
+    // The run folder the tracking and writing stages work in (untimed), with the keys written
+    // into its segment files for a keyed row.
     let tmp = tempfile::tempdir()?;
-    let mut run = 0;
-    let (fps, rss) = stage("track", reps, || {
-        run += 1;
-        let opts = TrackOptions {
-            out: Some(tmp.path().join(format!("run{run}"))),
-            ..TrackOptions::new(clip.clone(), seeds_path.clone())
-        };
-        let t = Instant::now();
-        let s = app::track(&opts, &NoProgress)?;
-        Ok((s.frames, t.elapsed().as_secs_f64()))
-    })?;
-    rows.push(Row {
-        stage: "track",
-        fps,
-        rss,
-        what: "`app::track` end to end: decode thread, background, tracker, run folder".into(),
-    });
-
-    // track (binary): the same, as a child process.
-    if bin.is_file() {
-        let out = tmp.path().join("bin-run");
-        let cmd = [
-            bin.to_str().context("binary path is not UTF-8")?,
-            "track",
-            clip_arg,
-            "--seeds",
-            seeds_path.to_str().context("seeds path is not UTF-8")?,
-            "--out",
-            out.to_str().context("temp path is not UTF-8")?,
-            "--quiet",
-        ];
-        let (fps, rss) = child_stage("track (binary)", reps, frames, &cmd)?;
-        rows.push(Row {
-            stage: "track (binary)",
-            fps,
-            rss,
-            what: "`mocap2d track` as a child process, wall clock incl. start-up".into(),
-        });
-    } else {
-        let note = format!("{}: not built, so no `track (binary)` row", bin.display());
-        if !notes.contains(&note) {
-            notes.push(note);
+    let run_dir = tmp.path().join("run");
+    let mut opts = TrackOptions {
+        out: Some(run_dir.clone()),
+        ..TrackOptions::new(clip.clone(), seeds_path.clone())
+    };
+    if let Some((every, _)) = &spec.keys {
+        opts.segment_len = *every;
+    }
+    app::track(&opts, &NoProgress)?;
+    let run_arg = utf8(&run_dir)?;
+    if let Some((_, gt)) = &spec.keys {
+        let ok = Command::new("scripts/keys-from-labels")
+            .arg(&run_arg)
+            .arg(gt)
+            .status()
+            .context("running scripts/keys-from-labels (run from the repository's root)")?
+            .success();
+        if !ok {
+            bail!("scripts/keys-from-labels {run_arg} {} failed", gt.display());
         }
     }
 
-    // track-only: the segmented tracking loop `track` and `resume` run (`Session`), over frames
-    // already decoded into memory, into the run folder of the track stage (rewritten each run).
+    // End to end: the binary, as a user runs it.
+    let (end_to_end, end_rss) = if spec.keys.is_some() {
+        let cmd = [
+            &utf8(bin)?,
+            "resume",
+            &run_arg,
+            "--segment",
+            "0",
+            "--clip",
+            &clip_arg,
+            "--quiet",
+        ];
+        child_stage("end to end (resume)", reps, frames, &cmd)?
+    } else {
+        let out = utf8(&tmp.path().join("bin-run"))?;
+        let cmd = [
+            &utf8(bin)?,
+            "track",
+            &clip_arg,
+            "--seeds",
+            &utf8(&seeds_path)?,
+            "--out",
+            &out,
+            "--quiet",
+        ];
+        child_stage("end to end (track)", reps, frames, &cmd)?
+    };
+
+    // Tracking: the segmented loop over frames already in memory, into the run folder (its
+    // segment files, and so its keys, are read as `resume` reads them).
     let mut decoded = Vec::with_capacity(frames as usize);
     let mut src = decode::open(&clip, None)?;
     while let Some(f) = src.next_frame()? {
         decoded.push(f);
     }
-    let run_dir = tmp.path().join("run1");
     let mut manifest = Manifest::read(&run_dir.join(RUN_TOML))?;
     manifest.complete = false;
     manifest.tracked_segments = 0;
     let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
-    let (fps, rss) = stage("track-only", reps, || {
+    let tracking = stage("tracking", reps, || {
         let batch = decoded.clone(); // untimed: the tracker takes frames by value
         let items = batch
             .into_iter()
@@ -284,47 +344,73 @@ fn bench_clip(dir: &Path, reps: usize, bin: &Path, notes: &mut Vec<String>) -> R
         let done = session.run(items, 0, &NoProgress)?;
         Ok((done.frames, t.elapsed().as_secs_f64()))
     })?;
-    rows.push(Row {
-        stage: "track-only",
-        fps,
-        rss,
-        what: "`run::session::Session::run` (what `track` runs after decode and background) over \
-               decoded frames in memory (RSS holds the clip twice)"
-            .into(),
-    });
+    drop(decoded);
 
-    Ok(ClipBench {
-        dir: dir.to_owned(),
+    // Writing: the run's end, as `Session` writes it once the last segment is tracked.
+    let done = Manifest::read(&run_dir.join(RUN_TOML))?;
+    let writing = stage("writing", reps, || {
+        let t = Instant::now();
+        segments::assemble_tracks(&run_dir, done.tracked_segments)?;
+        let (_, rep) = report::for_run(&run_dir, &done, &base)?;
+        std::fs::write(run_dir.join("report.md.tmp"), rep.to_markdown())?;
+        std::fs::rename(run_dir.join("report.md.tmp"), run_dir.join("report.md"))?;
+        done.write(&run_dir)?;
+        Ok((done.frames, t.elapsed().as_secs_f64()))
+    })?;
+
+    Ok(RowBench {
+        label,
         width: info.width,
         height: info.height,
         frames,
         joints: seeds.joints.len(),
-        decode_fps,
-        cli_fps,
-        rows,
+        keyframes: keyframes(&clip_arg),
+        decode,
+        plate,
+        tracking,
+        writing,
+        end_to_end,
+        end_rss,
+        ffmpeg,
+        target: spec.target,
     })
 }
 
-/// Runs `f` (which returns frames done and seconds timed) `reps` times; median frames/s and the
-/// peak RSS over the runs ("≤" when it could not be reset first, so includes earlier stages).
-fn stage(
-    name: &str,
-    reps: usize,
-    mut f: impl FnMut() -> Result<(u64, f64)>,
-) -> Result<(f64, String)> {
-    let reset = reset_peak();
+/// Number of keyframes in the clip's video stream (ffprobe), if ffprobe runs.
+fn keyframes(clip: &str) -> Option<usize> {
+    let out = Command::new("ffprobe")
+        .args([
+            "-v",
+            "error",
+            "-select_streams",
+            "v:0",
+            "-skip_frame",
+            "nokey",
+            "-show_entries",
+            "frame=pict_type",
+            "-of",
+            "csv=p=0",
+            clip,
+        ])
+        .output()
+        .ok()?;
+    out.status.success().then(|| {
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .count()
+    })
+}
+
+/// Runs `f` (which returns frames done and seconds timed) `reps` times; median frames/s.
+fn stage(name: &str, reps: usize, mut f: impl FnMut() -> Result<(u64, f64)>) -> Result<f64> {
     let mut fps = Vec::new();
     for _ in 0..reps {
         let (n, secs) = f().with_context(|| format!("stage {name}"))?;
         fps.push(n as f64 / secs);
         eprintln!("{name}: {n} frames in {secs:.3} s");
     }
-    let rss = match (peak_rss(), reset) {
-        (Some(k), true) => mib(k),
-        (Some(k), false) => format!("≤ {}", mib(k)),
-        (None, _) => "n/a".into(),
-    };
-    Ok((median(fps), rss))
+    Ok(median(fps))
 }
 
 /// Runs `cmd` `reps` times (under GNU time if present); median frames/s over `frames` and the
@@ -380,16 +466,4 @@ fn median(mut v: Vec<f64>) -> f64 {
     } else {
         (v[n / 2 - 1] + v[n / 2]) / 2.0
     }
-}
-
-/// Resets this process's peak RSS (VmHWM) to its current RSS; false if the kernel refuses.
-fn reset_peak() -> bool {
-    std::fs::write("/proc/self/clear_refs", "5").is_ok()
-}
-
-/// This process's peak RSS (VmHWM, KiB).
-fn peak_rss() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    line.split_whitespace().nth(1)?.parse().ok()
 }
