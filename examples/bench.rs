@@ -1,5 +1,5 @@
 //! Throughput of each stage of `mocap2d track` on one or more clips, against FFmpeg's own decode
-//! to RGB: the rows of issue 30's table, measured in one run.
+//! to RGB: every row of the speed targets (docs/benchmarks.md), measured in one run.
 //!
 //!     cargo run --release --example bench -- [--reps 3] [--bin target/release/mocap2d] \
 //!         ROW...
