@@ -1,7 +1,7 @@
 //! Tracking accuracy against ground truth, through the whole `track` command: render a synth
 //! clip at 640×360 (120 frames, seed 1), encode it to H.264, track it from the seed file the
 //! clip comes with, and compare with the exact joint positions. Bounds sit just under today's
-//! measured figures (in the comments), so a regression fails; the issue's targets are noted
+//! measured figures (in the comments), so a regression fails; the targets are noted
 //! where the tracker does not reach them yet.
 
 use crate::common::{synth_clip, write_synth};
@@ -69,27 +69,26 @@ fn assert_accuracy(scenario: Scenario, max_median: f32, min_pck5: f32) {
 
 #[test]
 fn walk_keeps_joints_within_5px_through_the_far_arm_passing_behind() {
-    // Measured: median 0.09 px, PCK@5 99.9 % (issue target: >= 95 %, <= 1.5 px); 98.8 % with
-    // the defaults before the sixth session.
+    // Measured: median 0.09 px, PCK@5 99.9 % (target: >= 95 %, <= 1.5 px).
     assert_accuracy(Scenario::Walk, 0.3, 0.98);
 }
 
 #[test]
 fn occlude_keeps_joints_within_5px_with_crossing_legs_and_hidden_arm() {
-    // Measured: median 0.10 px, PCK@5 96.6 % (issue target: >= 95 %, <= 1.5 px); 96.8 % before
+    // Measured: median 0.10 px, PCK@5 96.6 % (target: >= 95 %, <= 1.5 px); 96.8 % before
     // the bone-length prior was anchored to the seed length.
     assert_accuracy(Scenario::Occlude, 0.3, 0.95);
 }
 
 #[test]
 fn fast_punches_and_kicks_stay_tracked() {
-    // Measured: median 0.11 px, PCK@5 100.0 % (issue target: >= 90 %, <= 2 px).
+    // Measured: median 0.11 px, PCK@5 100.0 % (target: >= 90 %, <= 2 px).
     assert_accuracy(Scenario::Fast, 0.3, 0.98);
 }
 
 #[test]
 fn squash_and_stretch_is_tracked() {
-    // One seed swings by a point either way on any change (see the README), so the issue's 95 %
+    // One seed swings by a point either way on any change (see the README), so the 95 % target
     // is asserted on the mean of seeds 1-5. Measured: 94.8 / 96.2 / 94.0 / 96.0 / 95.8 %, mean
     // 95.36 %, medians 0.36-0.56 px; over seeds 1-30 95.2 %. Before the bone-length prior was
     // anchored to the seed length (`length_anchor = 0`): 95.2 / 96.2 / 92.6 / 96.2 / 94.8 %,
@@ -119,8 +118,7 @@ fn a_short_flat_bone_keeps_its_length() {
     let (_, dir) = synth_run_with(Scenario::Fast, None, segment_len, 27);
     let (median, pck5) = joint_figures(&dir, "toe_r");
     // Measured: median 0.28 px, PCK@5 99.2 %. Centred on the predicted length
-    // (`length_anchor = 0`, the behaviour until the seventh session): 5.1 px, 49.2 %, the toe
-    // up to 12 px short of the shoe's tip.
+    // (`length_anchor = 0`): 5.1 px, 49.2 %, the toe up to 12 px short of the shoe's tip.
     assert!(median <= 1.0, "toe_r median {median} px");
     assert!(pck5 >= 0.95, "toe_r PCK@5 {pck5}");
 }
@@ -136,8 +134,7 @@ fn a_shoe_the_colour_of_the_floor_is_tracked() {
     let ((_, pck5), dir) = synth_run_with(Scenario::Noisy, None, segment_len, 8);
     let (median, toe_pck5) = joint_figures(&dir, "toe_r");
     // Measured: toe_r median 1.06 px, PCK@5 100 %; the clip 97.5 %. With the samples' own test
-    // for the axis (until the eighth session): toe_r 27.9 px, 10.0 % (scored `ok`), the clip
-    // 91.1 %.
+    // for the axis: toe_r 27.9 px, 10.0 % (scored `ok`), the clip 91.1 %.
     assert!(median <= 2.0, "toe_r median {median} px");
     assert!(toe_pck5 >= 0.95, "toe_r PCK@5 {toe_pck5}");
     assert!(pck5 >= 0.96, "PCK@5 {pck5}");
@@ -145,9 +142,7 @@ fn a_shoe_the_colour_of_the_floor_is_tracked() {
 
 #[test]
 fn noise_flicker_and_compression_are_tracked() {
-    // Measured: median 0.35 px, PCK@5 97.6 % (issue target: >= 95 %, <= 1.5 px); 98.6 % before
-    // the bone-length prior was anchored to the seed length, but over seeds 1-30 the mean went
-    // from 94.7 to 96.7 % (see the README).
+    // Measured: median 0.35 px, PCK@5 97.6 % (target: >= 95 %, <= 1.5 px).
     assert_accuracy(Scenario::Noisy, 0.6, 0.95);
 }
 
@@ -158,13 +153,9 @@ fn long_clip_with_turns_is_tracked() {
     // Default segments of 150: tracking goes on through uncorrected segment files (one
     // segment: 80.5 %).
     let ((median, pck5), _dir) = synth_run(Scenario::Long, None);
-    // Measured: median 0.14 px, PCK@5 92.7 % (issue target: >= 85 %, <= 2.5 px); seeds 2-5:
-    // 93.5, 94.7, 95.9, 95.2 %. Until the tenth session `long` crouched six times, four by
-    // mistake (once through the first turn); on that clip median 0.15 px, PCK@5 91.4 %, seeds
-    // 2-5 92.8, 93.5, 94.5, 92.3 %. Before the bone-length prior was anchored to the seed length
-    // 90.2, 94.5, 92.5, 93.2, 93.8 % (seeds 1-10: mean 92.3 against 93.0 % now); with the
-    // defaults before the sixth session 91.0, 93.2, 93.5, 94.1, 92.1 %. 87.7 % without filling
-    // one joint's gaps while another stays hidden (see gapfill).
+    // Measured: median 0.14 px, PCK@5 92.7 % (target: >= 85 %, <= 2.5 px); seeds 2-5:
+    // 93.5, 94.7, 95.9, 95.2 %. 87.7 % without filling one joint's gaps while another stays
+    // hidden (see gapfill). Earlier figures: docs/NOTES.md.
     assert!(pck5 >= 0.92, "PCK@5 {pck5}, median {median}");
     assert!(median <= 0.5, "median {median}");
 }
@@ -230,11 +221,7 @@ fn flies_clip_runs_and_reports_its_error() {
     assert!(median <= 1.0, "median {median}");
 
     // The correction workflow on real footage: the labels written into the segment files the
-    // report names, then `resume` from the first. Measured: files 6-10 (frames 900-1499, where
-    // the flies walk), PCK@5 77.4 -> 83.5 %, PCK@10 86.4 % (83.1 % with the blend's passes
-    // agreeing only within 3 px, until the ninth session; 82.6 % before the bone-length prior
-    // was anchored to the seed length; 82.8 % with the defaults before the sixth session; 83.0 %
-    // before bones hidden on a correction kept the seed appearance).
+    // report names, then `resume` from the first. Earlier figures: docs/NOTES.md.
     let run = dir.path().join("run");
     assert_eq!(s.to_correct, vec![6, 7, 8, 9, 10], "report: {}", s.report);
     let gt: HashMap<(u64, String), (f32, f32)> = read_gt(&shared.join("gt.csv"))

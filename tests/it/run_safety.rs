@@ -1,4 +1,4 @@
-//! Issue 27's smaller defects, each tried as a user would: paths that are not UTF-8, a batch
+//! Run-folder safety: smaller defects, each tried as a user would: paths that are not UTF-8, a batch
 //! over a run holding an unapplied edit, a truncated MKV, `track --out` into another clip's run
 //! folder, a seed file with too many joints, a degenerate character, `resume` looking for the
 //! clip beside the run folder, and error messages that name the right line once.

@@ -275,8 +275,7 @@ fn corrections_of_flagged_segments_lift_accuracy() {
 /// the correction on must come out better than they were tracked, over seeds 1-5: on one clip
 /// a correction can lead a later stretch astray where the uncorrected run happened to hold.
 /// 360 frames of `long` (walk, turn, walk back, start waving), so that the worst segment has
-/// something to fix: the first 240 frames are tracked at 95-97.5 % since `long` crouches only
-/// where it says (tenth session).
+/// something to fix: the first 240 frames are tracked at 95-97.5 %.
 #[test]
 fn correcting_only_the_worst_segment_makes_the_rest_better() {
     let len = 40;
@@ -298,16 +297,8 @@ fn correcting_only_the_worst_segment_makes_the_rest_better() {
         after_sum += after;
     }
     // Measured (360 frames; segment 4, the turn, is the worst in all five): 96.7 -> 98.3, 95.5
-    // -> 97.0, 95.8 -> 99.1, 95.3 -> 95.5, 93.3 -> 97.2 %; means 95.3 -> 97.4 %. The 240-frame
-    // clip, since `long` crouches only where it says: 95.9 -> 95.7 % (segment 0 on three seeds,
-    // little left to fix); 480 frames 95.0 -> 96.0 % with two seeds down (93.0 and 92.7 %, the
-    // waving). Before the tenth session, on the clip that crouched through the first turn, 240
-    // frames: 90.1 -> 88.7, 93.6 -> 94.5, 82.3 -> 90.2, 89.5 -> 92.5, 86.8 -> 90.5 %; means
-    // 88.5 -> 91.3 % (91.2 % with passes agreeing only within 3 px; 91.1 % before disputed `low` winners of the blend were left to the gap
-    // filling: 88.6, 94.1, 90.3, 92.1, 90.4 %). Before the bone-length prior was anchored to the seed length: 87.3 ->
-    // 89.6, 93.1 -> 91.7, 75.5 -> 90.7, 89.3 -> 89.6, 92.4 -> 86.1 %; means 87.5 -> 89.5 %.
-    // Carrying on the tracker built on the correction (until the fifth session; before that,
-    // resume failed at the segment after the corrections): seed 1 81.2 % (earlier defaults).
+    // -> 97.0, 95.8 -> 99.1, 95.3 -> 95.5, 93.3 -> 97.2 %; means 95.3 -> 97.4 %. Earlier
+    // figures: docs/NOTES.md.
     assert!(
         after_sum >= before_sum + 0.05,
         "mean PCK@5 {} -> {}",
@@ -324,31 +315,19 @@ fn correcting_only_the_first_ranked_segment_of_the_long_clip_makes_it_better() {
     let run = s.path("run");
     let first = s.track("run", 150);
     let (before, after) = s.correct_segment(&run, first.flagged[0], 0);
-    // Measured: 92.7 -> 95.6 % (segment 3). On the clip before the tenth session (it crouched
-    // six times, once through the first turn): 91.4 -> 93.8 % (segment 2; 93.9 % with passes agreeing only within 3 px;
-    // 90.2 -> 94.2 % with segment 1 before the bone-length prior was anchored to the seed
-    // length; 91.0 -> 93.3 % with the defaults before the sixth session). Carrying on the tracker built on the correction (until the fifth session):
-    // 81.6 % (earlier defaults).
+    // Measured: 92.7 -> 95.6 % (segment 3). Earlier figures: docs/NOTES.md.
     assert!(after >= 0.95, "{before} -> {after}");
 }
 
-/// The acceptance test: 900 frames at 640×360, segments of 150.
+/// The acceptance test of correcting: 900 frames at 640×360, segments of 150.
 #[test]
 #[ignore = "long clip: run with cargo test --release --test it segments:: -- --ignored"]
 fn corrections_of_flagged_segments_lift_the_long_clip() {
     let s = Synth::new(Scenario::Long, 640, 360, None);
     let (before, after) = correct_flagged(&s, 150);
     // Measured: 92.7 % -> 98.2 % (every segment flagged, all seven files corrected); seeds 2-5
-    // (not asserted): 97.0 / 97.7 / 97.1 / 97.5 %, so the 98 % holds on seed 1 only.
-    // Until the tenth session `long` crouched six times (four by mistake, one through the first
-    // turn); on that clip: 91.4 % -> 96.7 % (96.4 %
-    // before disputed `low` winners of the blend were left to the gap filling, 96.0 % before the
-    // bone-length prior was anchored to the seed length, 95.7 % with the defaults
-    // before the sixth session). 98 % was not reached on that clip (see the
-    // README, "Segments, corrections and resume"). With the earlier defaults: without the seed
-    // appearance for bones hidden on a keyframe 94.7 %; without filling joints hidden in every
-    // blended pass between the keyframes as well 94.2 %; 95.6 % before each joint's closed gaps
-    // were filled while another stayed hidden.
+    // (not asserted): 97.0 / 97.7 / 97.1 / 97.5 %, so 98 % holds on seed 1 only. Earlier
+    // figures: docs/NOTES.md.
     assert!(after >= 0.98, "PCK@5 {before} -> {after}");
 }
 

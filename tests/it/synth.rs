@@ -440,9 +440,7 @@ fn long_walks_turns_waves_and_crouches() {
         "crouched on {} frames",
         crouched.len()
     );
-    // Twice, between the waving and the second turn, as `long` says (until the tenth session
-    // the first crouch's window was open at the start, so it crouched six times, during the
-    // first turn and the walks too).
+    // Twice, between the waving and the second turn, as `long` says.
     let bouts = 1 + crouched.windows(2).filter(|w| w[1] > w[0] + 1).count();
     assert_eq!(bouts, 2, "crouched on frames {crouched:?}");
     assert!(
