@@ -683,3 +683,24 @@ fn the_root_of_the_skeleton_does_not_change_the_tracking() {
         );
     }
 }
+
+/// `report.md` names frames worth keying: on the walk sample (one segment flagged), at most ten
+/// distinct frames of the clip, none on the seed frame (already keyed).
+#[test]
+fn the_report_names_frames_worth_keying() {
+    let d = Dir::new();
+    let run = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "walk.mocap", &[]);
+    let report = read(&run.join("report.md"));
+    let line = report
+        .lines()
+        .find(|l| l.starts_with("Frames worth keying next"))
+        .unwrap_or_else(|| panic!("no suggestions in:\n{report}"));
+    let list = line.split(": ").nth(1).unwrap().split('.').next().unwrap();
+    let frames: Vec<usize> = list.split(", ").map(|f| f.parse().unwrap()).collect();
+    assert!(!frames.is_empty() && frames.len() <= 10, "{line}");
+    let mut sorted = frames.clone();
+    sorted.sort();
+    sorted.dedup();
+    assert_eq!(sorted.len(), frames.len(), "{line}");
+    assert!(frames.iter().all(|&f| f > 0 && f < FRAMES), "{line}");
+}
