@@ -8,9 +8,11 @@
 //! - `POST /api/segments/ID`: save edited rectangles (JSON, at most [`MAX_BODY`] bytes).
 //! - `POST /api/segments/ID/resume`: resume tracking from the segment (501 when the app gives no
 //!   resume).
+//! - `GET /api/frames/N`, `GET /api/frames/N/frame.png`: any tracked frame, its joints and keys.
+//! - `POST /api/keys`: save a key on any frame into `keys.toml` (see [`super::keys_api`]).
 //!
-//! Segment ids are digits, and every file served or written is a segment file of the run
-//! folder or an embedded asset, so no request reaches a path outside the run folder. Requests
+//! Segment ids and frame numbers are digits, and every file served or written is a segment
+//! file or `keys.toml` of the run folder, the clip, or an embedded asset, so no request reaches a path outside the run folder. Requests
 //! whose `Host` is not this server's loopback address are refused (403), so a web page elsewhere
 //! cannot reach the server through a DNS name pointed at 127.0.0.1. A handler that panics
 //! answers 500 and the server carries on.
@@ -391,8 +393,14 @@ pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
         ["", "api", "segments", id] if post => api.save(id, body),
         ["", "api", "segments", id, "frame.png"] if get => api.frame_png(id),
         ["", "api", "segments", id, "resume"] if post => api.resume(id),
+        ["", "api", "frames", n] if get => api.frame_info(n),
+        ["", "api", "frames", n, "frame.png"] if get => api.any_frame_png(n),
+        ["", "api", "keys"] if post => api.save_key(body),
         ["", "app.js"] | ["", "style.css"] | ["", "api", "run"] => wrong(),
         ["", "api", "segments", _] | ["", "api", "segments", _, "frame.png" | "resume"] => wrong(),
+        ["", "api", "frames", _] | ["", "api", "frames", _, "frame.png"] | ["", "api", "keys"] => {
+            wrong()
+        }
         _ => Reply::error(404, format!("no such page: {path}")),
     }
 }
