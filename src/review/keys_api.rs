@@ -68,10 +68,19 @@ impl Api {
         Some(self.data.manifest.frames).filter(|&n| n > 0)
     }
 
-    /// The segment (as `resume --segment K` counts them) holding frame `f`.
+    /// The segment (as `resume --segment K` counts them) holding frame `f`; the clip's last
+    /// frame, when it opens a file of its own, belongs to the segment it closes.
     fn segment_number(&self, f: u64) -> Option<u64> {
         let m = &self.data.manifest;
-        (m.segment_len > 0 && f >= m.seed_frame).then(|| (f - m.seed_frame) / m.segment_len)
+        let plan = crate::run::segments::Plan {
+            seed_frame: m.seed_frame,
+            len: m.segment_len,
+        };
+        let k = (m.segment_len > 0).then(|| plan.segment_of(f))?;
+        Some(match self.clip_frames() {
+            Some(n) => k.min(plan.count(n).saturating_sub(1)),
+            None => k,
+        })
     }
 
     /// `tracks.csv` now (read again when its time or size has changed).
