@@ -2,7 +2,7 @@
 //! page's HTML, script and style are compiled into the binary (no CDN: it works offline).
 //!
 //! Routes (anything else is 404; a wrong method 405):
-//! - `GET /`, `/app.js`, `/style.css`: the page.
+//! - `GET /`, `/app.js`, `/keys.js`, `/style.css`: the page.
 //! - `GET /api/run`: segments with flags, joints, frame size.
 //! - `GET /api/segments/ID`, `GET /api/segments/ID/frame.png`: one segment.
 //! - `POST /api/segments/ID`: save edited rectangles (JSON, at most [`MAX_BODY`] bytes).
@@ -44,6 +44,7 @@ pub const MAX_CONNECTIONS: usize = 32;
 
 const INDEX_HTML: &str = include_str!("assets/index.html");
 const APP_JS: &str = include_str!("assets/app.js");
+const KEYS_JS: &str = include_str!("assets/keys.js");
 const STYLE_CSS: &str = include_str!("assets/style.css");
 
 /// The correction server: a bound socket and the run it serves.
@@ -387,6 +388,7 @@ pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
             }
         }
         ["", "app.js"] if get => asset("text/javascript; charset=utf-8", APP_JS),
+        ["", "keys.js"] if get => asset("text/javascript; charset=utf-8", KEYS_JS),
         ["", "style.css"] if get => asset("text/css; charset=utf-8", STYLE_CSS),
         ["", "api", "run"] if get => api.run_info(),
         ["", "api", "segments", id] if get => api.segment(id),
@@ -396,7 +398,7 @@ pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
         ["", "api", "frames", n] if get => api.frame_info(n),
         ["", "api", "frames", n, "frame.png"] if get => api.any_frame_png(n),
         ["", "api", "keys"] if post => api.save_key(body),
-        ["", "app.js"] | ["", "style.css"] | ["", "api", "run"] => wrong(),
+        ["", "app.js" | "keys.js" | "style.css"] | ["", "api", "run"] => wrong(),
         ["", "api", "segments", _] | ["", "api", "segments", _, "frame.png" | "resume"] => wrong(),
         ["", "api", "frames", _] | ["", "api", "frames", _, "frame.png"] | ["", "api", "keys"] => {
             wrong()
