@@ -174,6 +174,18 @@ try {
   const next = await page.textContent("#keynext");
   check(next.includes("--segment 0"), `the page says what to resume: ${next}`);
   await page.screenshot({ path: shot.replace(/\.png$/, "-key.png"), fullPage: true });
+
+  // The page's resume for that segment tracks with the key: the knee sits on it, as a seed.
+  await page.click("#resumekey");
+  await page.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className)
+    && !/^Resuming/.test(document.querySelector("#message").textContent), null, { timeout: 120000 });
+  const rmsg = await page.textContent("#message");
+  check(rmsg.includes("resumed from segment 000"), `resume with the key answers: ${rmsg}`);
+  const row = fs.readFileSync(path.join(work, "r.mocap/tracks.csv"), "utf8").split("\n")
+    .map((l) => l.split(",")).find((c) => c[0] === "12" && c[1] === "knee_l");
+  check(km && row && Math.abs(Number(row[2]) - Number(km[1])) < 1e-3
+    && Math.abs(Number(row[3]) - Number(km[2])) < 1e-3 && row[6] === "seed",
+    `after resume, knee_l on frame 12 is on its key as a seed: ${row}`);
 } finally {
   await browser.close();
   server.kill();
