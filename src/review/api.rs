@@ -51,10 +51,12 @@ impl Reply {
 
 /// The run being corrected, and the first frames decoded so far (PNG bytes by frame).
 pub struct Api {
-    data: RunData,
-    clip: PathBuf,
+    pub(super) data: RunData,
+    pub(super) clip: PathBuf,
     frames: Mutex<BTreeMap<u64, Arc<Vec<u8>>>>,
     resume: Option<Box<ResumeFn>>,
+    /// Any frame for the key editor: see [`super::keys_api`].
+    pub(super) any_frame: super::keys_api::FrameCache,
 }
 
 /// A rectangle as the page sends it.
@@ -86,6 +88,7 @@ impl Api {
             clip,
             frames: Mutex::new(BTreeMap::new()),
             resume,
+            any_frame: Default::default(),
         })
     }
 
@@ -173,6 +176,8 @@ impl Api {
                 "joints": joints, "segments": list,
                 "broken": bad.iter().map(|(id, e)| json!({"id": id, "error": e})).collect::<Vec<_>>(),
                 "resume": self.resume.is_some(),
+                "seed_frame": m.seed_frame, "segment_len": m.segment_len,
+                "first": self.data.first, "end": self.data.end(),
             }),
         )
     }

@@ -6,6 +6,7 @@ pub mod data;
 pub mod draw;
 pub mod graph;
 pub mod guide;
+pub mod keys_api;
 pub mod overlay;
 pub mod plot;
 pub mod serve;

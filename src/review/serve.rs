@@ -2,15 +2,17 @@
 //! page's HTML, script and style are compiled into the binary (no CDN: it works offline).
 //!
 //! Routes (anything else is 404; a wrong method 405):
-//! - `GET /`, `/app.js`, `/style.css`: the page.
+//! - `GET /`, `/app.js`, `/keys.js`, `/style.css`: the page.
 //! - `GET /api/run`: segments with flags, joints, frame size.
 //! - `GET /api/segments/ID`, `GET /api/segments/ID/frame.png`: one segment.
 //! - `POST /api/segments/ID`: save edited rectangles (JSON, at most [`MAX_BODY`] bytes).
 //! - `POST /api/segments/ID/resume`: resume tracking from the segment (501 when the app gives no
 //!   resume).
+//! - `GET /api/frames/N`, `GET /api/frames/N/frame.png`: any tracked frame, its joints and keys.
+//! - `POST /api/keys`: save a key on any frame into `keys.toml` (see [`super::keys_api`]).
 //!
-//! Segment ids are digits, and every file served or written is a segment file of the run
-//! folder or an embedded asset, so no request reaches a path outside the run folder. Requests
+//! Segment ids and frame numbers are digits, and every file served or written is a segment
+//! file or `keys.toml` of the run folder, the clip, or an embedded asset, so no request reaches a path outside the run folder. Requests
 //! whose `Host` is not this server's loopback address are refused (403), so a web page elsewhere
 //! cannot reach the server through a DNS name pointed at 127.0.0.1. A handler that panics
 //! answers 500 and the server carries on.
@@ -42,6 +44,7 @@ pub const MAX_CONNECTIONS: usize = 32;
 
 const INDEX_HTML: &str = include_str!("assets/index.html");
 const APP_JS: &str = include_str!("assets/app.js");
+const KEYS_JS: &str = include_str!("assets/keys.js");
 const STYLE_CSS: &str = include_str!("assets/style.css");
 
 /// The correction server: a bound socket and the run it serves.
@@ -385,14 +388,21 @@ pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
             }
         }
         ["", "app.js"] if get => asset("text/javascript; charset=utf-8", APP_JS),
+        ["", "keys.js"] if get => asset("text/javascript; charset=utf-8", KEYS_JS),
         ["", "style.css"] if get => asset("text/css; charset=utf-8", STYLE_CSS),
         ["", "api", "run"] if get => api.run_info(),
         ["", "api", "segments", id] if get => api.segment(id),
         ["", "api", "segments", id] if post => api.save(id, body),
         ["", "api", "segments", id, "frame.png"] if get => api.frame_png(id),
         ["", "api", "segments", id, "resume"] if post => api.resume(id),
-        ["", "app.js"] | ["", "style.css"] | ["", "api", "run"] => wrong(),
+        ["", "api", "frames", n] if get => api.frame_info(n),
+        ["", "api", "frames", n, "frame.png"] if get => api.any_frame_png(n),
+        ["", "api", "keys"] if post => api.save_key(body),
+        ["", "app.js" | "keys.js" | "style.css"] | ["", "api", "run"] => wrong(),
         ["", "api", "segments", _] | ["", "api", "segments", _, "frame.png" | "resume"] => wrong(),
+        ["", "api", "frames", _] | ["", "api", "frames", _, "frame.png"] | ["", "api", "keys"] => {
+            wrong()
+        }
         _ => Reply::error(404, format!("no such page: {path}")),
     }
 }

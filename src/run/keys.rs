@@ -195,6 +195,24 @@ pub fn parse(
     Ok(keys.into_values().map(|(_, k)| k).collect())
 }
 
+/// The text of a keys file holding `keys` (one `[[key]]` per key, in the order given; joints
+/// in `names` order, positions as `[x, y]`), which [`parse`] reads back to the same keys. Used
+/// by `serve` to save keys from the page; comments in the file it replaces are not kept.
+pub fn to_text(keys: &[Key], names: &[String]) -> String {
+    let mut out = String::from(
+        "# Keys on any frame: `joint = [x, y]` in px. Written by `mocap2d serve`; edit freely.\n",
+    );
+    for k in keys {
+        out.push_str(&format!("\n[[key]]\nframe = {}\n", k.frame));
+        for (name, p) in names.iter().zip(&k.joints) {
+            if let Some(p) = p {
+                out.push_str(&format!("{name} = [{:?}, {:?}]\n", p.x, p.y));
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -254,5 +272,17 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("line 3") && e.contains("[x, y]"), "{e}");
+    }
+
+    #[test]
+    fn to_text_reads_back_to_the_same_keys() {
+        let keys = parse_str(
+            "[[key]]\nframe = 30\nknee = [10, 20.25]\n[[key]]\nframe = 4\nhip = [1.5, 2.0]\nankle = [3, 4]\n",
+        )
+        .unwrap();
+        let text = to_text(&keys, &names());
+        assert_eq!(parse_str(&text).unwrap(), keys, "{text}");
+        assert!(text.contains("[[key]]\nframe = 4\nhip = [1.5, 2.0]\nankle = [3.0, 4.0]\n"));
+        assert_eq!(parse_str(&to_text(&[], &names())).unwrap(), vec![]);
     }
 }

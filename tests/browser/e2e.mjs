@@ -1,7 +1,8 @@
 // End-to-end test of the correction page in headless Chromium (Debian's /usr/bin/chromium,
 // driven by playwright-core): render and track a tiny synth clip, give the run a segment file,
 // start `mocap2d serve`, drag the head's rectangle, rotate the wrist's, save, and check that the
-// segment file changed by the dragged amounts. Leaves a screenshot of the page.
+// segment file changed by the dragged amounts; then go to frame 12, drag the left knee, save a
+// key and check keys.toml holds it. Leaves screenshots of the page.
 //
 //   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default target/debug/mocap2d;
 //                                          CHROMIUM: default /usr/bin/chromium;
@@ -132,6 +133,59 @@ try {
   fs.mkdirSync(path.dirname(shot), { recursive: true });
   await page.screenshot({ path: shot, fullPage: true });
   console.log(`screenshot: ${shot}`);
+
+  // A key on any frame: go to frame 12, drag the left knee, save the key.
+  await page.fill("#frameno", "12");
+  await page.click("#go");
+  const knee = page.locator('#kstage circle.kpoint[data-name="knee_l"]');
+  await knee.waitFor();
+  await page.waitForFunction(() => {
+    const im = document.querySelector("#kstage image");
+    return im && im.getBBox().width > 0;
+  });
+  const k0 = { x: Number(await knee.getAttribute("cx")), y: Number(await knee.getAttribute("cy")) };
+  const kscale = await page.evaluate(() => {
+    const svg = document.querySelector("#kstage");
+    return svg.getBoundingClientRect().width / svg.viewBox.baseVal.width;
+  });
+  const kb = await knee.boundingBox();
+  const [kx, ky] = [kb.x + kb.width / 2, kb.y + kb.height / 2];
+  await page.mouse.move(kx, ky);
+  await page.mouse.down();
+  await page.mouse.move(kx + 15, ky + 5, { steps: 4 });
+  await page.mouse.move(kx + 30, ky + 10, { steps: 4 });
+  await page.mouse.up();
+  await page.click("#savekey");
+  await page.waitForFunction(() => /Saved keys|Not saved/.test(document.querySelector("#message").textContent));
+  const kmsg = await page.textContent("#message");
+  check(kmsg.startsWith("Saved keys.toml (key on frame 12: knee_l)"), `key save reported: ${kmsg}`);
+  const keys = fs.readFileSync(path.join(work, "r.mocap/keys.toml"), "utf8");
+  const km = keys.match(/\[\[key\]\]\nframe = 12\nknee_l = \[(-?[0-9.e-]+), (-?[0-9.e-]+)\]\n/);
+  check(km !== null && !/^(?!#)[a-z_]+ = \[/m.test(keys.replace(km ? km[0] : "", "")),
+    `keys.toml holds the knee key only:\n${keys}`);
+  if (km) {
+    const [dx, dy] = [Number(km[1]) - k0.x, Number(km[2]) - k0.y];
+    const tol = 0.51 / kscale;
+    check(Math.abs(dx - 30 / kscale) <= tol && Math.abs(dy - 10 / kscale) <= tol,
+      `knee keyed at (${dx.toFixed(3)}, ${dy.toFixed(3)}) px from its track; dragged (${(30 / kscale).toFixed(3)}, ${(10 / kscale).toFixed(3)})`);
+  }
+  const ringed = await page.locator('#kstage circle.kring.keyed[data-name="knee_l"]').count();
+  check(ringed === 1, "the keyed knee is drawn ringed");
+  const next = await page.textContent("#keynext");
+  check(next.includes("--segment 0"), `the page says what to resume: ${next}`);
+  await page.screenshot({ path: shot.replace(/\.png$/, "-key.png"), fullPage: true });
+
+  // The page's resume for that segment tracks with the key: the knee sits on it, as a seed.
+  await page.click("#resumekey");
+  await page.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className)
+    && !/^Resuming/.test(document.querySelector("#message").textContent), null, { timeout: 120000 });
+  const rmsg = await page.textContent("#message");
+  check(rmsg.includes("resumed from segment 000"), `resume with the key answers: ${rmsg}`);
+  const row = fs.readFileSync(path.join(work, "r.mocap/tracks.csv"), "utf8").split("\n")
+    .map((l) => l.split(",")).find((c) => c[0] === "12" && c[1] === "knee_l");
+  check(km && row && Math.abs(Number(row[2]) - Number(km[1])) < 1e-3
+    && Math.abs(Number(row[3]) - Number(km[2])) < 1e-3 && row[6] === "seed",
+    `after resume, knee_l on frame 12 is on its key as a seed: ${row}`);
 } finally {
   await browser.close();
   server.kill();

@@ -1,6 +1,6 @@
 // mocap2d correction page: lists the run's segments, shows one segment's first frame with its
 // joint rectangles, lets them be moved, resized and rotated, and saves them back to the
-// segment file. No libraries: plain DOM and SVG, served by `mocap2d serve`.
+// segment file. Keys on any frame are keys.js. No libraries: plain DOM and SVG, served by `mocap2d serve`.
 "use strict";
 
 const SVG = "http://www.w3.org/2000/svg";
@@ -76,6 +76,7 @@ async function openSegment(id) {
   selected = null;
   setDirty(false);
   history.replaceState(null, "", `#${id}`);
+  $("#keyeditor").hidden = true;
   $("#editor").hidden = false;
   $("#title").textContent = `segment ${seg.id}, frame ${seg.frame} (${seg.file})`;
   buildStage();
@@ -241,7 +242,7 @@ function pointerMove(ev) {
 function pointerUp() { drag = null; }
 
 document.addEventListener("keydown", (ev) => {
-  if (!seg || !selected || ev.target.tagName === "INPUT") return;
+  if (!seg || !selected || ev.target.tagName === "INPUT" || $("#editor").hidden) return;
   const step = ev.shiftKey ? 10 : 1;
   const d = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, -step], ArrowDown: [0, step] }[ev.key];
   if (!d) return;
@@ -282,6 +283,7 @@ window.addEventListener("beforeunload", (ev) => { if (dirty) ev.preventDefault()
 
 loadRun().then(() => {
   const want = location.hash.slice(1);
+  if (/^f[0-9]+$/.test(want)) { openFrame(Number(want.slice(1))); return; }
   const first = run.segments.find((s) => s.id === want) || run.segments.find((s) => s.flagged) || run.segments[0];
   if (first) openSegment(first.id);
 });

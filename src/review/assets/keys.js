@@ -1,0 +1,225 @@
+// mocap2d correction page, keys on any frame: go to a frame, see its tracked joints as points,
+// drag some, and save them as that frame's key in keys.toml (POST /api/keys). Uses `run`,
+// `call`, `say` and `$` of app.js.
+"use strict";
+
+let kframe = null;   // GET /api/frames/N
+let kjoints = [];    // its joints, moved ones with `moved: true`
+let kdrag = null;    // { name, start, orig }
+let lastSaved = null; // POST /api/keys answer, until another frame is opened
+
+function kscale() {
+  const room = Math.max(320, window.innerWidth - 300);
+  const high = Math.max(240, window.innerHeight - 190);
+  return Math.min(3, room / run.width, high / run.height);
+}
+
+function kmoved() { return kjoints.filter((j) => j.moved); }
+
+function setKeyButtons() {
+  $("#savekey").disabled = kmoved().length === 0;
+  $("#removekey").disabled = !kframe || kframe.keyed.length === 0;
+}
+
+// The segment (as `resume --segment K` counts) holding frame f (from the server's answer),
+// and its file in run.segments.
+function segmentOf(f) {
+  const k = kframe && kframe.frame === f ? kframe.segment : null;
+  if (k == null) return null;
+  const file = run.segments.find((s) => Number(s.id) === k);
+  return { k, file };
+}
+
+async function openFrame(n) {
+  if (!Number.isInteger(n) || n < 0) { say(`no frame ${n}`, "error"); return; }
+  if (kmoved().length && !confirm("Discard the joints moved on this frame?")) return;
+  if (typeof dirty !== "undefined" && dirty && !confirm("Discard the unsaved segment changes?")) return;
+  if (typeof setDirty === "function") setDirty(false);
+  const r = await call(`/api/frames/${n}`);
+  if (!r.ok) { say(r.body ? r.body.error : `no frame ${n}`, "error"); return; }
+  const same = kframe && kframe.frame === n;
+  if (!same) lastSaved = null;
+  kframe = r.body;
+  kjoints = kframe.joints.map((j) => ({ ...j, moved: false }));
+  $("#frameno").value = n;
+  history.replaceState(null, "", `#f${n}`);
+  $("#editor").hidden = true;
+  $("#keyeditor").hidden = false;
+  const seg = segmentOf(n);
+  $("#ktitle").textContent = `frame ${n}` + (seg ? ` (segment ${seg.k})` : "") +
+    (kframe.keyed.length ? `, keyed: ${kframe.keyed.join(", ")}` : "");
+  if (kframe.keys_error) say(`keys.toml: ${kframe.keys_error}`, "error");
+  else if (!same) say("");
+  buildKeyStage();
+  showNext();
+}
+
+function buildKeyStage() {
+  const svg = $("#kstage");
+  svg.textContent = "";
+  svg.setAttribute("viewBox", `0 0 ${run.width} ${run.height}`);
+  const s = kscale();
+  svg.setAttribute("width", Math.round(run.width * s));
+  svg.setAttribute("height", Math.round(run.height * s));
+  const img = document.createElementNS(SVG, "image");
+  img.setAttribute("href", `/api/frames/${kframe.frame}/frame.png`);
+  img.setAttribute("width", run.width);
+  img.setAttribute("height", run.height);
+  svg.appendChild(img);
+  const bones = document.createElementNS(SVG, "g");
+  bones.id = "kbones";
+  svg.appendChild(bones);
+  for (const j of kjoints) {
+    const ring = document.createElementNS(SVG, "circle");
+    ring.setAttribute("class", "kring");
+    ring.dataset.name = j.name;
+    svg.appendChild(ring);
+    const c = document.createElementNS(SVG, "circle");
+    c.setAttribute("class", "kpoint");
+    c.dataset.name = j.name;
+    c.setAttribute("fill", COLOURS[j.status] || "#ffffff");
+    svg.appendChild(c);
+    const t = document.createElementNS(SVG, "text");
+    t.setAttribute("class", "name");
+    t.dataset.name = j.name;
+    t.textContent = j.name;
+    svg.appendChild(t);
+  }
+  svg.onpointerdown = kdown;
+  svg.onpointermove = kmove;
+  svg.onpointerup = svg.onpointercancel = () => { kdrag = null; };
+  kupdate();
+}
+
+function kupdate() {
+  const svg = $("#kstage");
+  const s = kscale();
+  const parents = Object.fromEntries(run.joints.map((j) => [j.name, j.parent]));
+  const at = Object.fromEntries(kjoints.map((j) => [j.name, j]));
+  for (const j of kjoints) {
+    const sel = `[data-name="${CSS.escape(j.name)}"]`;
+    const c = svg.querySelector(`circle.kpoint${sel}`);
+    c.setAttribute("cx", j.x); c.setAttribute("cy", j.y); c.setAttribute("r", 5 / s);
+    c.classList.toggle("moved", j.moved);
+    const ring = svg.querySelector(`circle.kring${sel}`);
+    const keyed = j.moved || kframe.keyed.includes(j.name);
+    ring.setAttribute("cx", j.x); ring.setAttribute("cy", j.y); ring.setAttribute("r", 9 / s);
+    ring.style.display = keyed ? "" : "none";
+    ring.classList.toggle("keyed", keyed);
+    const t = svg.querySelector(`text.name${sel}`);
+    t.style.fontSize = `${11 / s}px`;
+    t.style.strokeWidth = `${3 / s}px`;
+    t.setAttribute("x", j.x + 8 / s); t.setAttribute("y", j.y - 6 / s);
+  }
+  const bones = svg.querySelector("#kbones");
+  bones.textContent = "";
+  for (const j of kjoints) {
+    const p = parents[j.name] && at[parents[j.name]];
+    if (!p) continue;
+    const l = document.createElementNS(SVG, "line");
+    l.setAttribute("class", "bone");
+    l.setAttribute("x1", p.x); l.setAttribute("y1", p.y);
+    l.setAttribute("x2", j.x); l.setAttribute("y2", j.y);
+    bones.appendChild(l);
+  }
+  setKeyButtons();
+}
+
+function kpoint(ev) {
+  const svg = $("#kstage");
+  const p = svg.createSVGPoint();
+  p.x = ev.clientX; p.y = ev.clientY;
+  return p.matrixTransform(svg.getScreenCTM().inverse());
+}
+
+// Pressing takes the joint nearest the pointer, within 10 screen px (overlapping points: the
+// one whose centre is pressed).
+function kdown(ev) {
+  const p = kpoint(ev);
+  const reach = 10 / kscale();
+  let j = null, best = reach * reach;
+  for (const k of kjoints) {
+    const d = (k.x - p.x) ** 2 + (k.y - p.y) ** 2;
+    if (d <= best) { best = d; j = k; }
+  }
+  if (!j) return;
+  kdrag = { name: j.name, start: p, orig: { x: j.x, y: j.y } };
+  $("#kstage").setPointerCapture(ev.pointerId);
+  ev.preventDefault();
+}
+
+function kmove(ev) {
+  if (!kdrag) return;
+  const j = kjoints.find((k) => k.name === kdrag.name);
+  const p = kpoint(ev);
+  const clamp = (v, hi) => Math.min(hi - 0.5, Math.max(-0.5, v));
+  j.x = clamp(kdrag.orig.x + (p.x - kdrag.start.x), run.width);
+  j.y = clamp(kdrag.orig.y + (p.y - kdrag.start.y), run.height);
+  j.moved = true;
+  kupdate();
+}
+
+async function postKey(joints) {
+  const n = kframe.frame;
+  const r = await call("/api/keys", {
+    method: "POST", headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ frame: n, joints }),
+  });
+  if (!r.ok) { say(`Not saved: ${r.body ? r.body.error : r.status}`, "error"); return; }
+  lastSaved = r.body;
+  for (const j of kjoints) j.moved = false;
+  const what = r.body.keyed.length ? `key on frame ${n}: ${r.body.keyed.join(", ")}` : `no key on frame ${n}`;
+  say(r.body.saved ? `Saved keys.toml (${what})` : `No change to save (${what}).`, "ok");
+  await openFrame(n);
+}
+
+function saveKey() {
+  const joints = Object.fromEntries(kmoved().map((j) => [j.name, [j.x, j.y]]));
+  return postKey(joints);
+}
+
+function removeKey() {
+  if (!confirm(`Remove the key on frame ${kframe.frame}?`)) return;
+  return postKey({});
+}
+
+// After a save: what to run for the key to take effect, and the page's resume for it.
+function showNext() {
+  const p = $("#keynext");
+  const b = $("#resumekey");
+  p.textContent = "";
+  b.hidden = true;
+  if (!lastSaved || !lastSaved.command) return;
+  p.append("To track with this key, run ");
+  const code = document.createElement("code");
+  code.textContent = lastSaved.command;
+  p.append(code);
+  const seg = segmentOf(kframe.frame);
+  if (run.resume && seg && seg.file) {
+    p.append(" or press the button.");
+    b.textContent = `Resume segment ${seg.file.id}`;
+    b.dataset.id = seg.file.id;
+    b.hidden = false;
+  }
+}
+
+async function resumeKeyed() {
+  const id = $("#resumekey").dataset.id;
+  say(`Resuming from segment ${id}…`);
+  const r = await call(`/api/segments/${id}/resume`, {
+    method: "POST", headers: { "Content-Type": "application/json" }, body: "{}",
+  });
+  if (!r.ok) { say(r.body ? r.body.error : `resume failed (${r.status})`, "error"); return; }
+  lastSaved = null;
+  say(r.body.message, "ok");
+  await loadRun();
+  await openFrame(kframe.frame);
+}
+
+$("#goframe").onsubmit = (ev) => { ev.preventDefault(); openFrame(Number($("#frameno").value)); };
+$("#prevframe").onclick = () => openFrame(kframe.frame - 1);
+$("#nextframe").onclick = () => openFrame(kframe.frame + 1);
+$("#savekey").onclick = saveKey;
+$("#removekey").onclick = removeKey;
+$("#resumekey").onclick = resumeKeyed;
+window.addEventListener("beforeunload", (ev) => { if (kmoved().length) ev.preventDefault(); });

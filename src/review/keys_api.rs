@@ -1,0 +1,337 @@
+//! The correction page's keys on any frame (`RUN/keys.toml`, [`crate::run::keys`]):
+//!
+//! - `GET /api/frames/N`: the tracked joints of frame N (from `tracks.csv`, read again whenever
+//!   it changes, so a resume shows) and which of them `keys.toml` keys there.
+//! - `GET /api/frames/N/frame.png`: frame N of the clip. The clip is decoded from its start, or
+//!   onward from the last frame asked for, so stepping forward is cheap; the last few frames are
+//!   kept.
+//! - `POST /api/keys` with `{"frame": N, "joints": {"name": [x, y], …}}`: sets those joints'
+//!   key on frame N, keeping every other key (and that frame's other keyed joints); an empty
+//!   `joints` removes frame N's key. Checked as `keys::read` checks the file (joint names,
+//!   inside the frame, frame within the clip) → 400. Written while holding the run folder's lock
+//!   (409 while `track` or `resume` holds it), atomically. The file is rewritten from its parsed
+//!   keys in frame order ([`crate::run::keys::to_text`]): the user's comments in it are not
+//!   kept.
+
+use super::api::{Api, Reply};
+use super::draw::png_bytes;
+use crate::decode::FrameSource;
+use crate::error::Error;
+use crate::geom::Point;
+use crate::run::keys::{self, Key};
+use crate::run::TrackRow;
+use serde::Deserialize;
+use serde_json::{json, Value};
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::{Arc, Mutex};
+use std::time::SystemTime;
+
+/// Frames kept as PNG.
+const KEEP_FRAMES: usize = 3;
+
+/// The clip's decoder where it stopped, the last frames as PNG, and `tracks.csv` as last read.
+#[derive(Default)]
+pub struct FrameCache {
+    decoder: Mutex<Decoder>,
+    tracks: Mutex<Option<TracksRead>>,
+}
+
+/// `tracks.csv` as read: its modification time and size then, and its rows.
+type TracksRead = (Option<SystemTime>, u64, Arc<Vec<TrackRow>>);
+
+#[derive(Default)]
+struct Decoder {
+    /// The open clip and the number of the frame it gives next.
+    source: Option<(Box<dyn FrameSource>, u64)>,
+    recent: VecDeque<(u64, Arc<Vec<u8>>)>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KeyBody {
+    frame: u64,
+    joints: BTreeMap<String, [f64; 2]>,
+}
+
+impl Api {
+    fn names(&self) -> Vec<String> {
+        self.data
+            .seeds
+            .joints
+            .iter()
+            .map(|j| j.name.clone())
+            .collect()
+    }
+
+    /// Frames in the clip, when the run knows.
+    fn clip_frames(&self) -> Option<u64> {
+        Some(self.data.manifest.frames).filter(|&n| n > 0)
+    }
+
+    /// The segment (as `resume --segment K` counts them) holding frame `f`; the clip's last
+    /// frame, when it opens a file of its own, belongs to the segment it closes.
+    fn segment_number(&self, f: u64) -> Option<u64> {
+        let m = &self.data.manifest;
+        let plan = crate::run::segments::Plan {
+            seed_frame: m.seed_frame,
+            len: m.segment_len,
+        };
+        let k = (m.segment_len > 0).then(|| plan.segment_of(f))?;
+        Some(match self.clip_frames() {
+            Some(n) => k.min(plan.count(n).saturating_sub(1)),
+            None => k,
+        })
+    }
+
+    /// `tracks.csv` now (read again when its time or size has changed).
+    fn tracks(&self) -> crate::error::Result<Arc<Vec<TrackRow>>> {
+        let path = self.data.dir.join("tracks.csv");
+        let meta = std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?;
+        let stamp = (meta.modified().ok(), meta.len());
+        let mut cache = self
+            .any_frame
+            .tracks
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        if let Some((t, n, rows)) = cache.as_ref() {
+            if (*t, *n) == stamp {
+                return Ok(rows.clone());
+            }
+        }
+        let rows = Arc::new(crate::run::tracks::read_tracks(&path)?);
+        *cache = Some((stamp.0, stamp.1, rows.clone()));
+        Ok(rows)
+    }
+
+    /// `GET /api/frames/N`.
+    pub fn frame_info(&self, n: &str) -> Reply {
+        let Ok(f) = n.parse::<u64>() else {
+            return Reply::error(404, format!("no frame {n:?}: frames are numbers"));
+        };
+        let rows = match self.tracks() {
+            Ok(r) => r,
+            Err(e) => return Reply::error(500, e.to_string()),
+        };
+        let joints: Vec<Value> = rows
+            .iter()
+            .filter(|r| r.frame == f)
+            .map(|r| json!({ "name": r.joint, "x": r.x, "y": r.y, "status": r.status }))
+            .collect();
+        if joints.is_empty() {
+            return Reply::error(
+                404,
+                format!("frame {f} has no tracked joints in tracks.csv"),
+            );
+        }
+        let names = self.names();
+        let m = &self.data.manifest;
+        let (mut keyed, mut keys_at, mut keys_error) = (Vec::new(), json!({}), Value::Null);
+        match keys::read(&self.data.dir, &names, m.width, m.height, None) {
+            Ok(all) => {
+                if let Some(k) = all.iter().find(|k| k.frame == f) {
+                    for (name, p) in names.iter().zip(&k.joints) {
+                        if let Some(p) = p {
+                            keyed.push(name.clone());
+                            keys_at[name] = json!([p.x, p.y]);
+                        }
+                    }
+                }
+            }
+            Err(e) => keys_error = json!(e.to_string()),
+        }
+        Reply::json(
+            200,
+            &json!({
+                "frame": f, "joints": joints, "keyed": keyed, "keys": keys_at,
+                "keys_error": keys_error, "segment": self.segment_number(f),
+            }),
+        )
+    }
+
+    /// `GET /api/frames/N/frame.png`.
+    pub fn any_frame_png(&self, n: &str) -> Reply {
+        let Ok(f) = n.parse::<u64>() else {
+            return Reply::error(404, format!("no frame {n:?}: frames are numbers"));
+        };
+        let mut d = self
+            .any_frame
+            .decoder
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        if let Some((_, png)) = d.recent.iter().find(|(g, _)| *g == f) {
+            return png_reply(png);
+        }
+        if d.source.as_ref().is_none_or(|(_, next)| *next > f) {
+            match crate::decode::open(&self.clip, Some(self.data.manifest.fps)) {
+                Ok(s) => d.source = Some((s, 0)),
+                Err(e) => return Reply::error(500, e.to_string()),
+            }
+        }
+        let (source, next) = d.source.as_mut().expect("opened above");
+        let img = loop {
+            match source.next_frame() {
+                Ok(Some(img)) if *next == f => {
+                    *next += 1;
+                    break img;
+                }
+                Ok(Some(_)) => *next += 1,
+                Ok(None) => {
+                    d.source = None;
+                    return Reply::error(
+                        404,
+                        format!("frame {f} is beyond the clip {}", self.clip.display()),
+                    );
+                }
+                Err(e) => {
+                    d.source = None;
+                    return Reply::error(500, e.to_string());
+                }
+            }
+        };
+        let png = Arc::new(png_bytes(&img));
+        if d.recent.len() >= KEEP_FRAMES {
+            d.recent.pop_front();
+        }
+        d.recent.push_back((f, png.clone()));
+        png_reply(&png)
+    }
+
+    /// `POST /api/keys` (see the module doc).
+    pub fn save_key(&self, body: &[u8]) -> Reply {
+        let edit: KeyBody = match serde_json::from_slice(body) {
+            Ok(b) => b,
+            Err(e) => {
+                return Reply::error(
+                    400,
+                    format!("malformed body: {e}; send {{\"frame\": N, \"joints\": {{\"name\": [x, y], …}}}}"),
+                )
+            }
+        };
+        let names = self.names();
+        let m = &self.data.manifest;
+        let (w, h) = (m.width, m.height);
+        if let Some(n) = self.clip_frames().filter(|&n| edit.frame >= n) {
+            return Reply::error(
+                400,
+                format!(
+                    "frame {}, but the clip has {n} frames (0 to {})",
+                    edit.frame,
+                    n - 1
+                ),
+            );
+        }
+        let mut given = vec![None; names.len()];
+        for (name, &[x, y]) in &edit.joints {
+            let Some(j) = names.iter().position(|n| n == name) else {
+                return Reply::error(
+                    400,
+                    format!(
+                        "joint {name:?}: no such joint in this run; its joints are {}",
+                        names.join(", ")
+                    ),
+                );
+            };
+            let inside = x.is_finite()
+                && y.is_finite()
+                && x >= -0.5
+                && y >= -0.5
+                && x <= w as f64 - 0.5
+                && y <= h as f64 - 0.5;
+            if !inside {
+                return Reply::error(
+                    400,
+                    format!("joint {name:?}: ({x}, {y}) lies outside the {w}×{h} frame"),
+                );
+            }
+            given[j] = Some(Point::new(x as f32, y as f32));
+        }
+        // One writer at a time, as for segment files: refused while `track` or `resume` writes.
+        let _lock = match crate::run::lock::RunLock::acquire(&self.data.dir, "serve (a key)") {
+            Ok(l) => l,
+            Err(e @ Error::RunFolder { .. }) => {
+                return Reply::error(
+                    409,
+                    format!("{e}; your key is not saved: save it again once that is done"),
+                )
+            }
+            Err(e) => return Reply::error(500, format!("{e}; your key is not saved")),
+        };
+        let path = keys::path(&self.data.dir);
+        let old_text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+            Err(e) => return Reply::error(500, Error::io(&path, e).to_string()),
+        };
+        let frames = self.clip_frames();
+        let mut all = match keys::parse(&old_text, &path, &names, w, h, frames) {
+            Ok(k) => k,
+            Err(e) => return Reply::error(409, format!("{e}; fix keys.toml by hand first")),
+        };
+        let at = all.iter().position(|k| k.frame == edit.frame);
+        if edit.joints.is_empty() {
+            if let Some(i) = at {
+                all.remove(i);
+            }
+        } else {
+            let i = at.unwrap_or_else(|| {
+                all.push(Key {
+                    frame: edit.frame,
+                    joints: vec![None; names.len()],
+                });
+                all.len() - 1
+            });
+            for (slot, p) in all[i].joints.iter_mut().zip(&given) {
+                if p.is_some() {
+                    *slot = *p;
+                }
+            }
+            all.sort_by_key(|k| k.frame);
+        }
+        let text = keys::to_text(&all, &names);
+        if let Err(e) = keys::parse(&text, &path, &names, w, h, frames) {
+            return Reply::error(400, e.to_string());
+        }
+        let keyed: Vec<&String> = all
+            .iter()
+            .find(|k| k.frame == edit.frame)
+            .map(|k| {
+                names
+                    .iter()
+                    .zip(&k.joints)
+                    .filter(|(_, p)| p.is_some())
+                    .map(|(n, _)| n)
+                    .collect()
+            })
+            .unwrap_or_default();
+        let segment = self.segment_number(edit.frame);
+        let command =
+            segment.map(|k| format!("mocap2d resume {} --segment {k}", self.data.dir.display()));
+        let answer = |saved: bool| {
+            json!({
+                "saved": saved, "file": "keys.toml", "frame": edit.frame, "keyed": keyed,
+                "segment": segment, "command": command,
+            })
+        };
+        if text == old_text {
+            return Reply::json(200, &answer(false));
+        }
+        // The file is read under the lock; a hand edit landing since then is kept, not lost.
+        let changed = || Ok(std::fs::read_to_string(&path).unwrap_or_default() != old_text);
+        match crate::atomic::write_unless(&path, text.as_bytes(), changed) {
+            Ok(true) => Reply::json(200, &answer(true)),
+            Ok(false) => Reply::error(
+                409,
+                "keys.toml changed while saving; your key is not saved: reload and save again",
+            ),
+            Err(e) => Reply::error(500, e.to_string()),
+        }
+    }
+}
+
+fn png_reply(png: &Arc<Vec<u8>>) -> Reply {
+    Reply {
+        status: 200,
+        content_type: "image/png",
+        body: png.as_ref().clone(),
+    }
+}
