@@ -25,5 +25,6 @@ mod scale;
 mod seeds;
 mod segments;
 mod serve;
+mod serve_keys;
 mod signals;
 mod synth;

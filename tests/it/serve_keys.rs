@@ -1,0 +1,164 @@
+//! Keys on any frame from the serve page: `GET /api/frames/N`, `POST /api/keys`, and a resume
+//! that puts the keyed joint on its key.
+
+use super::serve::{tracked_walk, Served};
+use mocap2d::progress::NoProgress;
+use mocap2d::seed::read_seeds;
+
+/// The first joint tracked on frame `f`: name and position.
+fn tracked_joint(srv: &Served, f: u64) -> (String, f64, f64) {
+    let (st, info) = srv.json("GET", &format!("/api/frames/{f}"), b"");
+    assert_eq!(st, 200, "{info}");
+    let j = &info["joints"][0];
+    let (x, y) = (j["x"].as_f64().unwrap(), j["y"].as_f64().unwrap());
+    (j["name"].as_str().unwrap().to_owned(), x, y)
+}
+
+/// A key saved from the page on a frame inside a segment: it reads back through the API and
+/// from `keys.toml`, and `resume --segment K` (K as the answer says) puts the joint exactly on
+/// it, as a seed, on that frame.
+#[test]
+fn a_key_saved_from_the_page_is_kept_and_resume_puts_the_joint_on_it() {
+    let (_dir, run) = tracked_walk(30, 10);
+    let srv = Served::start(&run);
+    let (st, info) = srv.json("GET", "/api/run", b"");
+    assert_eq!(
+        (st, &info["segment_len"], &info["seed_frame"]),
+        (200, &10.into(), &0.into())
+    );
+    let (name, x, y) = tracked_joint(&srv, 15);
+    let (st, f) = srv.json("GET", "/api/frames/15", b"");
+    assert_eq!((st, f["keyed"].as_array().unwrap().len()), (200, 0), "{f}");
+    let (png_st, png) = srv.req("GET", "/api/frames/15/frame.png", b"");
+    assert_eq!((png_st, &png[..4]), (200, &b"\x89PNG"[..]));
+    // Stepping on, and back, decodes the right frames again.
+    assert_eq!(srv.req("GET", "/api/frames/16/frame.png", b"").0, 200);
+    assert_eq!(
+        srv.req("GET", "/api/frames/2/frame.png", b"").1[..4],
+        b"\x89PNG"[..]
+    );
+    assert_eq!(srv.req("GET", "/api/frames/15/frame.png", b"").1, png);
+    assert_eq!(srv.req("GET", "/api/frames/999", b"").0, 404);
+
+    let (kx, ky) = ((x + 6.0).min(300.0), (y - 4.0).max(10.0));
+    let body = serde_json::json!({ "frame": 15, "joints": { &name: [kx, ky] } }).to_string();
+    let (st, r) = srv.json("POST", "/api/keys", body.as_bytes());
+    assert_eq!(
+        (st, r["saved"].as_bool(), &r["segment"]),
+        (200, Some(true), &1.into()),
+        "{r}"
+    );
+    assert!(
+        r["command"].as_str().unwrap().ends_with("--segment 1"),
+        "{r}"
+    );
+    let (_, f) = srv.json("GET", "/api/frames/15", b"");
+    assert_eq!(f["keyed"], serde_json::json!([name]), "{f}");
+    assert!(
+        (f["keys"][&name][0].as_f64().unwrap() - kx).abs() < 1e-3,
+        "{f}"
+    );
+    let text = std::fs::read_to_string(run.join("keys.toml")).unwrap();
+    assert!(
+        text.contains("frame = 15") && text.contains(&format!("{name} = [")),
+        "{text}"
+    );
+    // Saving the same again changes nothing.
+    let (st, r) = srv.json("POST", "/api/keys", body.as_bytes());
+    assert_eq!((st, r["saved"].as_bool()), (200, Some(false)), "{r}");
+    drop(srv);
+
+    let opts = mocap2d::app::ResumeOptions {
+        run: run.clone(),
+        segment: Some(1),
+        ..Default::default()
+    };
+    mocap2d::app::resume(&opts, &NoProgress).unwrap();
+    let rows = mocap2d::run::tracks::read_tracks(&run.join("tracks.csv")).unwrap();
+    let r = rows
+        .iter()
+        .find(|r| r.frame == 15 && r.joint == name)
+        .unwrap();
+    assert!(
+        (r.x as f64 - kx).abs() < 1e-3 && (r.y as f64 - ky).abs() < 1e-3,
+        "{r:?} vs ({kx}, {ky})"
+    );
+    assert_eq!(r.status, "seed");
+}
+
+/// Keys from the page merge per joint and frame, an empty key removes the frame's key, bad keys
+/// get 400 naming the problem, and a key while another command holds the run folder gets 409;
+/// none of those touch `keys.toml`.
+#[test]
+fn keys_from_the_page_merge_and_bad_or_locked_ones_touch_nothing() {
+    let (_dir, run) = tracked_walk(30, 10);
+    let srv = Served::start(&run);
+    let (st, f) = srv.json("GET", "/api/frames/4", b"");
+    assert_eq!(st, 200);
+    let a = f["joints"][0]["name"].as_str().unwrap().to_owned();
+    let b = f["joints"][1]["name"].as_str().unwrap().to_owned();
+    let post = |v: serde_json::Value| srv.json("POST", "/api/keys", v.to_string().as_bytes());
+    assert_eq!(
+        post(serde_json::json!({"frame": 4, "joints": {&a: [10, 20]}})).0,
+        200
+    );
+    assert_eq!(
+        post(serde_json::json!({"frame": 20, "joints": {&a: [11, 21]}})).0,
+        200
+    );
+    let (st, r) = post(serde_json::json!({"frame": 4, "joints": {&b: [30.5, 40]}}));
+    assert_eq!(st, 200, "{r}");
+    let keys_now = || std::fs::read_to_string(run.join("keys.toml")).unwrap();
+    let names: Vec<String> = read_seeds(&run.join("seeds.toml"))
+        .unwrap()
+        .0
+        .joints
+        .iter()
+        .map(|j| j.name.clone())
+        .collect();
+    let read = || mocap2d::run::keys::read(&run, &names, 320, 240, Some(30)).unwrap();
+    let keys = read();
+    assert_eq!(keys.iter().map(|k| k.frame).collect::<Vec<_>>(), [4, 20]);
+    assert_eq!(keys[0].joints.iter().flatten().count(), 2, "{}", keys_now());
+
+    let before = keys_now();
+    for (body, says) in [
+        (
+            serde_json::json!({"frame": 4, "joints": {"elbow_x": [1, 2]}}),
+            "elbow_x",
+        ),
+        (
+            serde_json::json!({"frame": 4, "joints": {&a: [1, 900]}}),
+            "outside",
+        ),
+        (
+            serde_json::json!({"frame": 30, "joints": {&a: [1, 2]}}),
+            "30 frames",
+        ),
+        (
+            serde_json::json!({"frame": 4, "joints": {&a: [1]}}),
+            "malformed",
+        ),
+        (serde_json::json!({"frame": -1, "joints": {}}), "malformed"),
+    ] {
+        let (st, r) = post(body.clone());
+        let msg = r["error"].as_str().unwrap_or_default();
+        assert_eq!(st, 400, "{body}: {r}");
+        assert!(msg.contains(says), "{body}: {msg}");
+        assert_eq!(keys_now(), before);
+    }
+    assert_eq!(srv.req("GET", "/api/keys", b"").0, 405);
+    assert_eq!(srv.req("POST", "/api/frames/4", b"{}").0, 405);
+
+    let lock = mocap2d::run::lock::RunLock::acquire(&run, "resume").unwrap();
+    let (st, r) = post(serde_json::json!({"frame": 6, "joints": {&a: [1, 2]}}));
+    assert_eq!(st, 409, "{r}");
+    assert!(r["error"].as_str().unwrap().contains("not saved"), "{r}");
+    assert_eq!(keys_now(), before);
+    drop(lock);
+
+    // An empty key removes frame 4's key; the key on frame 20 stays.
+    let (st, r) = post(serde_json::json!({"frame": 4, "joints": {}}));
+    assert_eq!((st, r["saved"].as_bool()), (200, Some(true)), "{r}");
+    assert_eq!(read().iter().map(|k| k.frame).collect::<Vec<_>>(), [20]);
+}
