@@ -206,11 +206,25 @@ pub fn to_text(keys: &[Key], names: &[String]) -> String {
         out.push_str(&format!("\n[[key]]\nframe = {}\n", k.frame));
         for (name, p) in names.iter().zip(&k.joints) {
             if let Some(p) = p {
-                out.push_str(&format!("{name} = [{:?}, {:?}]\n", p.x, p.y));
+                out.push_str(&format!("{} = [{:?}, {:?}]\n", toml_key(name), p.x, p.y));
             }
         }
     }
     out
+}
+
+/// `name` as a TOML key: bare when it can be (letters, digits, `_`, `-`), else quoted, so that
+/// a joint named `female.head` is not read back as a table `female`.
+fn toml_key(name: &str) -> String {
+    let bare = !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if bare {
+        name.to_owned()
+    } else {
+        toml::Value::String(name.to_owned()).to_string()
+    }
 }
 
 #[cfg(test)]
@@ -284,5 +298,26 @@ mod tests {
         assert_eq!(parse_str(&text).unwrap(), keys, "{text}");
         assert!(text.contains("[[key]]\nframe = 4\nhip = [1.5, 2.0]\nankle = [3.0, 4.0]\n"));
         assert_eq!(parse_str(&to_text(&[], &names())).unwrap(), vec![]);
+    }
+
+    #[test]
+    fn names_that_are_not_bare_keys_are_quoted() {
+        // The flies' joints are named like `female.head`: bare, that would be a table.
+        let names: Vec<String> = ["female.head", "left wrist", "knee"]
+            .map(String::from)
+            .to_vec();
+        let keys = vec![Key {
+            frame: 3,
+            joints: vec![
+                Some(Point::new(1.0, 2.0)),
+                Some(Point::new(3.0, 4.0)),
+                Some(Point::new(5.0, 6.0)),
+            ],
+        }];
+        let text = to_text(&keys, &names);
+        assert!(text.contains("\"female.head\" = [1.0, 2.0]\n"), "{text}");
+        assert!(text.contains("\nknee = [5.0, 6.0]\n"), "{text}");
+        let back = parse(&text, Path::new("keys.toml"), &names, 100, 80, None).unwrap();
+        assert_eq!(back, keys, "{text}");
     }
 }
