@@ -17,8 +17,9 @@
 //! (passes that start from two corrections and see a joint in two places on the same frame
 //! mostly mean that it is covered and one of them took another limb for it). A lone `low`
 //! winner that the other passes did not see at all stands: a `low` measurement is right more
-//! often than the interpolation. The measurements behind these rules are in docs/NOTES.md
-//! ("Blending passes").
+//! often than the interpolation. A lone `ok` winner in the same dispute keeps its place but is
+//! only `low`: `ok` should mean the passes agree. The measurements behind these rules are in
+//! docs/NOTES.md ("Blending passes").
 
 use crate::run::segments::turns_near;
 use crate::track::{JointEstimate, Status};
@@ -85,6 +86,10 @@ pub fn blend(passes: &[Vec<Vec<JointEstimate>>]) -> Vec<Vec<JointEstimate>> {
                         angle_rad: angle / total,
                         status: if disputed {
                             Status::Occluded
+                        } else if alone && seen >= 2 {
+                            // An `ok` no other pass backs while another saw the joint elsewhere:
+                            // one of them took another limb for it, so it is worth a look.
+                            Status::Low
                         } else {
                             c[best].status
                         },
@@ -108,6 +113,24 @@ mod tests {
             score,
             status,
         }]
+    }
+
+    #[test]
+    fn a_lone_ok_winner_against_a_pass_that_saw_the_joint_elsewhere_is_low() {
+        // Two passes see the joint 30 px apart, neither backed: the more confident wins, `low`.
+        let out = blend(&[
+            vec![e(0.0, 0.9, Status::Ok)],
+            vec![e(30.0, 0.6, Status::Ok)],
+        ]);
+        assert_eq!(out[0][0].pos.x, 0.0);
+        assert_eq!(out[0][0].status, Status::Low);
+        // Backed by a second pass, it stays `ok`.
+        let out = blend(&[
+            vec![e(0.0, 0.9, Status::Ok)],
+            vec![e(1.0, 0.6, Status::Ok)],
+            vec![e(30.0, 0.6, Status::Ok)],
+        ]);
+        assert_eq!(out[0][0].status, Status::Ok);
     }
 
     #[test]
@@ -159,12 +182,13 @@ mod tests {
             out[0][0].pos.x, 0.0,
             "the position is the winner's until filled"
         );
-        // An `ok` winner stands, and so does a `low` one that only hidden passes dispute.
+        // An `ok` winner keeps its place, only `low` (see below); a `low` one that only hidden
+        // passes dispute stands.
         let ok = blend(&[
             vec![e(0.0, 0.8, Status::Ok)],
             vec![e(20.0, 0.4, Status::Low)],
         ]);
-        assert_eq!(ok[0][0].status, Status::Ok);
+        assert_eq!((ok[0][0].pos.x, ok[0][0].status), (0.0, Status::Low));
         let lone = blend(&[
             vec![e(0.0, 0.5, Status::Low)],
             vec![e(20.0, 0.9, Status::Occluded)],
