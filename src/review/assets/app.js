@@ -85,27 +85,39 @@ async function openSegment(id) {
 }
 
 // Display scale at which the frame fits beside the list (small frames enlarged up to 3×).
-function displayScale() {
+// The scale a frame of `width` × `height` is drawn at, leaving `margin` px of height for the
+// page around it.
+function fitScale(width, height, margin) {
   const room = Math.max(320, window.innerWidth - 300);
-  const high = Math.max(240, window.innerHeight - 160);
-  return Math.min(3, room / seg.width, high / seg.height);
+  const high = Math.max(240, window.innerHeight - margin);
+  return Math.min(3, room / width, high / height);
+}
+
+function displayScale() {
+  return fitScale(seg.width, seg.height, 160);
+}
+
+// Empties `svg` and lays a frame picture (`href`) in it at `scale`, with an empty group
+// `bonesId` over it for the bones; returns the svg.
+function frameStage(svg, width, height, scale, href, bonesId) {
+  svg.textContent = "";
+  svg.setAttribute("viewBox", `0 0 ${width} ${height}`);
+  svg.setAttribute("width", Math.round(width * scale));
+  svg.setAttribute("height", Math.round(height * scale));
+  const img = document.createElementNS(SVG, "image");
+  img.setAttribute("href", href);
+  img.setAttribute("width", width);
+  img.setAttribute("height", height);
+  svg.appendChild(img);
+  const bones = document.createElementNS(SVG, "g");
+  bones.id = bonesId;
+  svg.appendChild(bones);
+  return svg;
 }
 
 function buildStage() {
-  const svg = $("#stage");
-  svg.textContent = "";
-  svg.setAttribute("viewBox", `0 0 ${seg.width} ${seg.height}`);
-  const s = displayScale();
-  svg.setAttribute("width", Math.round(seg.width * s));
-  svg.setAttribute("height", Math.round(seg.height * s));
-  const img = document.createElementNS(SVG, "image");
-  img.setAttribute("href", `/api/segments/${seg.id}/frame.png`);
-  img.setAttribute("width", seg.width);
-  img.setAttribute("height", seg.height);
-  svg.appendChild(img);
-  const bones = document.createElementNS(SVG, "g");
-  bones.id = "bones";
-  svg.appendChild(bones);
+  const svg = frameStage($("#stage"), seg.width, seg.height, displayScale(),
+    `/api/segments/${seg.id}/frame.png`, "bones");
   for (const j of joints) {
     const g = document.createElementNS(SVG, "g");
     g.classList.add("joint");

@@ -9,9 +9,7 @@ let kdrag = null;    // { name, start, orig }
 let lastSaved = null; // POST /api/keys answer, until another frame is opened
 
 function kscale() {
-  const room = Math.max(320, window.innerWidth - 300);
-  const high = Math.max(240, window.innerHeight - 190);
-  return Math.min(3, room / run.width, high / run.height);
+  return fitScale(run.width, run.height, 190);
 }
 
 function kmoved() { return kjoints.filter((j) => j.moved); }
@@ -55,20 +53,8 @@ async function openFrame(n) {
 }
 
 function buildKeyStage() {
-  const svg = $("#kstage");
-  svg.textContent = "";
-  svg.setAttribute("viewBox", `0 0 ${run.width} ${run.height}`);
-  const s = kscale();
-  svg.setAttribute("width", Math.round(run.width * s));
-  svg.setAttribute("height", Math.round(run.height * s));
-  const img = document.createElementNS(SVG, "image");
-  img.setAttribute("href", `/api/frames/${kframe.frame}/frame.png`);
-  img.setAttribute("width", run.width);
-  img.setAttribute("height", run.height);
-  svg.appendChild(img);
-  const bones = document.createElementNS(SVG, "g");
-  bones.id = "kbones";
-  svg.appendChild(bones);
+  const svg = frameStage($("#kstage"), run.width, run.height, kscale(),
+    `/api/frames/${kframe.frame}/frame.png`, "kbones");
   for (const j of kjoints) {
     const ring = document.createElementNS(SVG, "circle");
     ring.setAttribute("class", "kring");
