@@ -13,8 +13,7 @@
 //! `a`, `λ / V` for Lucas–Kanade from `b` and `1 / V` for the bent guide, `λ = (t − a) /
 //! (b − a)`: a way counts for less the further it is from its key and the more doubtful its
 //! steps were. On a key the key wins. [`Between::lk_miss`] says how far Lucas–Kanade's ways
-//! land from the keys, for the caller to judge them against the tracker's own passes
-//! ([`LK_MARGIN`]).
+//! land from the keys; [`keep_tracker`] judges them against the tracker's own passes.
 //!
 //! The doubt of the result is its standard deviation, raised to the two passes' disagreement
 //! times `2 min(λ, 1 − λ)` between two keys: where forward and backward end up apart, one of
@@ -79,6 +78,44 @@ pub const LK_MARGIN: f32 = 0.5;
 /// A tracker whose ways land within this distance (px) of the keys was right between them: it
 /// stands whatever Lucas–Kanade's miss (which is then noise of the same size).
 pub const TRACKER_HIT_PX: f32 = 2.0;
+
+/// A span where the tracker called fewer than this share of its joint-frames `ok` is led by
+/// Lucas–Kanade (see [`keep_tracker`]).
+pub const FLOW_LEADS_OK_SHARE: f32 = 0.5;
+
+/// Which joints keep the appearance tracker's path between two keys (the rest take
+/// [`solve`]'s), from `misses[j]` = how far the tracker's ways and Lucas–Kanade's landed from
+/// the keys (px; `None` without a key at the far end, kept), and `ok_share`, the share of the
+/// span's joint-frames the tracker called `ok` (docs/method.md, "Motion between keys"):
+/// - a tracker within [`TRACKER_HIT_PX`] of the keys is kept;
+/// - the span is *led by flow* when the tracker lost most of it (`ok_share` under
+///   [`FLOW_LEADS_OK_SHARE`]) or Lucas–Kanade landed nearer the keys than the tracker for the
+///   median joint (`ln((m_LK + 1) / (m_T + 1))`); there every other joint takes the solved path;
+/// - otherwise a joint takes the solved path only where Lucas–Kanade landed at under
+///   [`LK_MARGIN`] of the tracker's miss.
+///
+/// Which cue follows the joints depends on the footage: on flat-coloured drawings the tracker
+/// lands on the keys and Lucas–Kanade slides along uniform limbs; on real video the tracker
+/// loses limbs that Lucas–Kanade follows. The keys at both ends say which this span is.
+pub fn keep_tracker(misses: &[Option<(f32, f32)>], ok_share: f32) -> Vec<bool> {
+    let mut ratios: Vec<f32> = misses
+        .iter()
+        .flatten()
+        .map(|&(t, lk)| ((lk + 1.0) / (t + 1.0)).ln())
+        .collect();
+    ratios.sort_by(f32::total_cmp);
+    let flow_leads =
+        ok_share < FLOW_LEADS_OK_SHARE || ratios.get(ratios.len() / 2).is_some_and(|&r| r < 0.0);
+    misses
+        .iter()
+        .map(|m| match *m {
+            None => true,
+            Some((t, _)) if t <= TRACKER_HIT_PX => true,
+            Some(_) if flow_leads => false,
+            Some((t, lk)) => lk >= LK_MARGIN * t,
+        })
+        .collect()
+}
 
 /// Variance (px²) given to a step no Lucas–Kanade pass could follow.
 const FAILED_STEP_VAR: f64 = 100.0;
@@ -273,6 +310,30 @@ mod tests {
             image::Rgb([g as u8, g as u8, g as u8])
         });
         GreyPyramid::new(&img, 3)
+    }
+
+    #[test]
+    fn the_keys_say_which_cue_leads_a_span() {
+        // The tracker hit the keys for most joints and called the span ok: only a joint whose
+        // tracker missed and whose Lucas–Kanade landed at under half the miss takes the flow.
+        let drawn = [
+            Some((1.0, 9.0)),
+            Some((1.5, 12.0)),
+            Some((20.0, 5.0)),
+            Some((20.0, 15.0)),
+            None,
+        ];
+        assert_eq!(keep_tracker(&drawn, 0.9), [true, true, false, true, true]);
+        // Lucas–Kanade landed nearer for most joints: every joint the tracker missed follows it.
+        let video = [
+            Some((60.0, 20.0)),
+            Some((80.0, 30.0)),
+            Some((1.0, 9.0)),
+            Some((20.0, 15.0)),
+        ];
+        assert_eq!(keep_tracker(&video, 0.9), [false, false, true, false]);
+        // The tracker lost most joint-frames: the flow leads even where it landed no nearer.
+        assert_eq!(keep_tracker(&drawn, 0.3), [true, true, false, false, true]);
     }
 
     #[test]

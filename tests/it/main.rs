@@ -11,6 +11,7 @@ mod accuracy;
 mod animate;
 mod batch;
 mod cli;
+mod dance;
 mod decode;
 mod eval;
 mod export;

@@ -240,36 +240,33 @@ impl Session {
                     &boxes,
                     &prm,
                 );
-                // Up to a corrected segment file, the blend of the tracker's passes stands for a
-                // joint unless the tracker's ways missed the keys by more than `TRACKER_HIT_PX`
-                // and Lucas–Kanade's two ways land decisively nearer them (docs/method.md §3).
-                let keep_blend: Vec<bool> = match (&back_here, &carried_end) {
-                    (Some(bh), Some(ce)) if *ib == top && end.is_some() => (0..self.names.len())
+                // Per joint, how far the tracker's ways and Lucas–Kanade's missed the keys (px):
+                // up to a corrected segment file both ways of each; between keys of keys.toml,
+                // where the tracker ran forward only, forward alone. `None`: no key on `b`.
+                let two_ways = *ib == top && end.is_some();
+                let misses: Vec<Option<(f32, f32)>> = match (&back_here, &carried_end) {
+                    (Some(bh), Some(ce)) if two_ways => (0..self.names.len())
                         .map(|j| {
-                            let (Some(xa), Some(xb)) = (start_pos.get(j), kb[j]) else {
-                                return true;
-                            };
-                            let back_a = bh.get(*ia).map_or(*xa, |r| r[j]);
-                            let miss_t = (ce[j] - xb).norm() + (back_a - *xa).norm();
-                            miss_t <= keyed::TRACKER_HIT_PX
-                                || solved.lk_miss[j] >= keyed::LK_MARGIN * miss_t
+                            let (xa, xb) = (start_pos[j], kb[j]?);
+                            let back_a = bh.get(*ia).map_or(xa, |r| r[j]);
+                            let miss_t = (ce[j] - xb).norm() + (back_a - xa).norm();
+                            Some((miss_t, solved.lk_miss[j]))
                         })
                         .collect(),
-                    // Between keys of keys.toml the tracker ran forward only: it stands for a
-                    // joint, bent onto the far key, unless it missed that key by more than
-                    // `TRACKER_HIT_PX` and Lucas–Kanade forward lands there at under half its
-                    // miss.
                     _ => (0..self.names.len())
-                        .map(|j| match kb[j] {
-                            Some(xb) => {
-                                let miss_t = (track_pos[*ib][j] - xb).norm();
-                                miss_t <= keyed::TRACKER_HIT_PX
-                                    || solved.lk_fwd_miss[j] >= keyed::LK_MARGIN * miss_t
-                            }
-                            None => true,
+                        .map(|j| {
+                            let miss_t = (track_pos[*ib][j] - kb[j]?).norm();
+                            Some((miss_t, solved.lk_fwd_miss[j]))
                         })
                         .collect(),
                 };
+                let seen = track_ok[*ia..=*ib]
+                    .iter()
+                    .flatten()
+                    .filter(|&&ok| ok)
+                    .count();
+                let ok_share = seen as f32 / track_ok[*ia..=*ib].iter().flatten().count() as f32;
+                let keep_blend = keyed::keep_tracker(&misses, ok_share);
                 let blend_kept = *ib == top && end.is_some() && back_here.is_some();
                 let len = (ib - ia) as f32;
                 for (t, row) in solved.rows.iter().enumerate().skip(1) {
