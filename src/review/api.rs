@@ -62,14 +62,14 @@ pub struct Api {
 /// A rectangle as the page sends it.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct BoxEdit {
-    name: String,
-    x: f64,
-    y: f64,
-    w: f64,
-    h: f64,
+pub(super) struct BoxEdit {
+    pub(super) name: String,
+    pub(super) x: f64,
+    pub(super) y: f64,
+    pub(super) w: f64,
+    pub(super) h: f64,
     #[serde(default)]
-    angle: f64,
+    pub(super) angle: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -348,7 +348,7 @@ impl Api {
 }
 
 /// Why a rectangle from the page cannot be written, if it cannot.
-fn check_box(b: &BoxEdit) -> std::result::Result<(), String> {
+pub(super) fn check_box(b: &BoxEdit) -> std::result::Result<(), String> {
     for (k, v) in [("x", b.x), ("y", b.y), ("angle", b.angle)] {
         if !v.is_finite() {
             return Err(format!("`{k}` must be a finite number"));
