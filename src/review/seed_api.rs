@@ -3,7 +3,8 @@
 //! frame and saved as the clip's first seed file.
 //!
 //! - `GET /api/run`: the clip (size, frames when stated), the joints to place with their
-//!   starting rectangles, the seed file to write and whether this page has saved it.
+//!   rectangles (as last saved, else the skeleton's), the seed file to write and whether this
+//!   page has saved it.
 //! - `GET /api/frames/N/frame.png`: frame N of the clip (as on the correction page).
 //! - `POST /api/seeds` with `{"frame": N, "joints": [{"name", "x", "y", "w", "h"}, …]}`: every
 //!   joint of the skeleton, once. Checked as `track --seeds` checks a seed file (rectangles
@@ -128,10 +129,19 @@ impl SeedApi {
             .is_some()
     }
 
-    /// `GET /api/run`.
+    /// `GET /api/run`: the joints and frame as last saved from the page, else the skeleton's.
     fn run_info(&self) -> Reply {
-        let joints: Vec<Value> = self
-            .seeds
+        let saved = self
+            .written
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .as_deref()
+            .and_then(|t| parse_seeds(t, &self.out).ok());
+        let (seeds, frame) = match &saved {
+            Some(s) => (s, s.frame),
+            None => (&self.seeds, self.first),
+        };
+        let joints: Vec<Value> = seeds
             .joints
             .iter()
             .map(|j| {
@@ -149,8 +159,8 @@ impl SeedApi {
                 "file": self.out.display().to_string(),
                 "skeleton": self.skeleton.display().to_string(),
                 "width": self.width, "height": self.height, "frames": self.frames,
-                "frame": self.first, "joints": joints, "segments": [], "broken": [],
-                "resume": false, "track": self.track.is_some(), "saved": self.saved(),
+                "frame": frame, "joints": joints, "segments": [], "broken": [],
+                "resume": false, "track": self.track.is_some(), "saved": saved.is_some(),
                 "command": self.command(),
             }),
         )

@@ -101,11 +101,22 @@ fn seeds_placed_on_a_later_frame_are_saved_and_track_the_whole_clip() {
         "{command}"
     );
 
+    // A page opened again starts from what was saved.
+    let (_, again) = srv.json("GET", "/api/run", b"");
+    assert_eq!(
+        (&again["saved"], &again["frame"]),
+        (&true.into(), &SEED_FRAME.into())
+    );
+    let sent: Value = serde_json::from_str(&body).unwrap();
+    assert!(
+        (again["joints"][3]["x"].as_f64().unwrap() - sent["joints"][3]["x"].as_f64().unwrap())
+            .abs()
+            < 1e-3
+    );
     let (seeds, text) = read_seeds(&out).unwrap();
     let (skeleton, _) = read_seeds(&dir.path().join("joints.toml")).unwrap();
     assert_eq!(seeds.frame, SEED_FRAME as u64, "{text}");
     assert_eq!(seeds.skeleton, skeleton.skeleton, "names and parents kept");
-    let sent: Value = serde_json::from_str(&body).unwrap();
     for (j, b) in seeds.joints.iter().zip(sent["joints"].as_array().unwrap()) {
         assert_eq!(j.name, b["name"].as_str().unwrap());
         assert!(
