@@ -13,7 +13,7 @@
 //!   keys in frame order ([`crate::run::keys::to_text`]): the user's comments in it are not
 //!   kept.
 
-use super::api::{Api, Reply};
+use super::api::{json_body, Api, Reply};
 use super::draw::png_bytes;
 use crate::decode::FrameSource;
 use crate::error::Error;
@@ -156,14 +156,10 @@ impl Api {
 
     /// `POST /api/keys` (see the module doc).
     pub fn save_key(&self, body: &[u8]) -> Reply {
-        let edit: KeyBody = match serde_json::from_slice(body) {
+        let edit: KeyBody = match json_body(body, r#"{"frame": N, "joints": {"name": [x, y], …}}"#)
+        {
             Ok(b) => b,
-            Err(e) => {
-                return Reply::error(
-                    400,
-                    format!("malformed body: {e}; send {{\"frame\": N, \"joints\": {{\"name\": [x, y], …}}}}"),
-                )
-            }
+            Err(r) => return r,
         };
         let names = self.names();
         let m = &self.data.manifest;

@@ -16,7 +16,7 @@
 //! - `POST /api/seeds/track`: runs `mocap2d track CLIP --seeds SEEDS.toml` when the app supplies
 //!   it (501 otherwise), once the seeds are saved (409 before).
 
-use super::api::{check_box, BoxEdit, Reply};
+use super::api::{apply_boxes, json_body, BoxEdit, Reply};
 use super::keys_api::FrameCache;
 use super::serve::{page_asset, path_parts, Pages};
 use crate::error::{Error, Result};
@@ -168,43 +168,18 @@ impl SeedApi {
 
     /// `POST /api/seeds` (see the module doc).
     fn save(&self, body: &[u8]) -> Reply {
-        let edit: SeedBody = match serde_json::from_slice(body) {
+        let shape = r#"{"frame": N, "joints": [{"name", "x", "y", "w", "h"}, …]}"#;
+        let edit: SeedBody = match json_body(body, shape) {
             Ok(b) => b,
-            Err(e) => {
-                return Reply::error(
-                    400,
-                    format!("malformed body: {e}; send {{\"frame\": N, \"joints\": [{{\"name\", \"x\", \"y\", \"w\", \"h\"}}, …]}}"),
-                )
-            }
+            Err(r) => return r,
         };
         let mut joints = self.seeds.joints.clone();
-        let mut seen = vec![false; joints.len()];
-        for b in &edit.joints {
-            let Some(i) = joints.iter().position(|j| j.name == b.name) else {
-                return Reply::error(
-                    400,
-                    format!("joint {:?} is not in {}", b.name, self.skeleton.display()),
-                );
-            };
-            if std::mem::replace(&mut seen[i], true) {
-                return Reply::error(400, format!("joint {:?} is given twice", b.name));
-            }
-            if let Err(msg) = check_box(b) {
-                return Reply::error(400, format!("joint {:?}: {msg}", b.name));
-            }
-            let bb = &mut joints[i].bbox;
-            (bb.cx, bb.cy) = (b.x as f32, b.y as f32);
-            (bb.w, bb.h) = (b.w as u32, b.h as u32);
-            bb.angle_rad = crate::geom::wrap_angle(b.angle as f32);
-        }
-        if let Some(i) = seen.iter().position(|s| !s) {
-            return Reply::error(
-                400,
-                format!(
-                    "joint {:?} is missing; place and send every joint",
-                    joints[i].name
-                ),
-            );
+        if let Err(r) = apply_boxes(
+            &mut joints,
+            &edit.joints,
+            &self.skeleton.display().to_string(),
+        ) {
+            return r;
         }
         for j in &mut joints {
             (j.score, j.status) = (None, None);

@@ -34,6 +34,15 @@ function joint(text, name) {
   return { x: num("x"), y: num("y"), w: num("w"), h: num("h"), angle: num("angle") };
 }
 
+/** Drags on `page` from (x, y) by (dx, dy) screen px, in two halves of 4 steps. */
+async function drag(page, x, y, dx, dy) {
+  await page.mouse.move(x, y);
+  await page.mouse.down();
+  await page.mouse.move(x + dx / 2, y + dy / 2, { steps: 4 });
+  await page.mouse.move(x + dx, y + dy, { steps: 4 });
+  await page.mouse.up();
+}
+
 const work = fs.mkdtempSync(path.join(os.tmpdir(), "mocap2d-e2e-"));
 const run = (...args) => execFileSync(bin, args, { cwd: work, stdio: ["ignore", "pipe", "pipe"] });
 run("synth", "walk", "--out", ".", "--size", "320x240", "--frames", "30", "--seed", "5");
@@ -41,6 +50,17 @@ run("track", "clip.mp4", "--seeds", "joints.toml", "--out", "r.mocap", "-q");
 // A segment file as `track --segment-len` writes them: the seed-file format, frame = first frame.
 // `track` wrote segments/000.toml (the seed frame): the page edits that one.
 const segFile = path.join(work, "r.mocap/segments/000.toml");
+
+/** Whether `mocap2d track clip.mp4 --seeds SEEDS --out OUT` succeeds (its stderr printed if not). */
+function tracks(seeds, out) {
+  try {
+    run("track", "clip.mp4", "--seeds", seeds, "--out", out, "-q");
+    return true;
+  } catch (e) {
+    console.log(String(e.stderr));
+    return false;
+  }
+}
 
 /** Starts `mocap2d serve ARGS --port 0` in the work folder: the process and its address. */
 async function serve(...args) {
@@ -84,11 +104,7 @@ try {
   // Drag the head 40 px right and 24 px up on screen.
   const box = await head.boundingBox();
   const [cx, cy] = [Math.round(box.x + box.width / 2), Math.round(box.y + box.height / 2)];
-  await page.mouse.move(cx, cy);
-  await page.mouse.down();
-  await page.mouse.move(cx + 20, cy - 12, { steps: 4 });
-  await page.mouse.move(cx + 40, cy - 24, { steps: 4 });
-  await page.mouse.up();
+  await drag(page, cx, cy, 40, -24);
 
   // Select the left wrist (handles show on the selected rectangle only) and turn it to point
   // straight down (+90°, clockwise on screen).
@@ -121,14 +137,7 @@ try {
   check(Math.abs(angle - Math.PI / 2) < 0.1, `wrist_l turned to ${angle} rad (want about ${(Math.PI / 2).toFixed(4)})`);
   check(fs.existsSync(path.join(work, "r.mocap/segments/history/000.001.toml")), "previous version kept in segments/history");
   // The file is still a seed file: the tool itself must accept it as seeds.
-  let parses = true;
-  try {
-    run("track", "clip.mp4", "--seeds", "r.mocap/segments/000.toml", "--out", "again.mocap", "-q");
-  } catch (e) {
-    parses = false;
-    console.log(String(e.stderr));
-  }
-  check(parses, "saved segment file is accepted by `mocap2d track --seeds`");
+  check(tracks("r.mocap/segments/000.toml", "again.mocap"), "saved segment file is accepted by `mocap2d track --seeds`");
 
   await page.click("#resume");
   await page.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className), null, { timeout: 120000 });
@@ -158,11 +167,7 @@ try {
   });
   const kb = await knee.boundingBox();
   const [kx, ky] = [kb.x + kb.width / 2, kb.y + kb.height / 2];
-  await page.mouse.move(kx, ky);
-  await page.mouse.down();
-  await page.mouse.move(kx + 15, ky + 5, { steps: 4 });
-  await page.mouse.move(kx + 30, ky + 10, { steps: 4 });
-  await page.mouse.up();
+  await drag(page, kx, ky, 30, 10);
   await page.click("#savekey");
   await page.waitForFunction(() => /Saved keys|Not saved/.test(document.querySelector("#message").textContent));
   const kmsg = await page.textContent("#message");
@@ -216,11 +221,7 @@ try {
   });
   const sb = await sp.locator('g.joint[data-name="head"] rect.body').boundingBox();
   const [sx, sy] = [Math.round(sb.x + sb.width / 2), Math.round(sb.y + sb.height / 2)];
-  await sp.mouse.move(sx, sy);
-  await sp.mouse.down();
-  await sp.mouse.move(sx + 15, sy + 6, { steps: 4 });
-  await sp.mouse.move(sx + 30, sy + 12, { steps: 4 });
-  await sp.mouse.up();
+  await drag(sp, sx, sy, 30, 12);
   const placedText = await sp.textContent("#placed");
   check(placedText.startsWith("1 of 14 joints placed"), `placed count: ${placedText}`);
   await sp.click("#save");
@@ -239,14 +240,7 @@ try {
   check(Math.abs(k1[0].x - k1[1].x) < 1e-3 && Math.abs(k1[0].y - k1[1].y) < 1e-3, "an unmoved joint is saved where it was");
   const cmd = await sp.textContent("#seedcmd");
   check(cmd.includes("mocap2d track clip.mp4 --seeds first.toml"), `the page says how to track: ${cmd}`);
-  let reads = true;
-  try {
-    run("track", "clip.mp4", "--seeds", "first.toml", "--out", "first.mocap", "-q");
-  } catch (e) {
-    reads = false;
-    console.log(String(e.stderr));
-  }
-  check(reads, "the saved seeds are accepted by `mocap2d track --seeds`");
+  check(tracks("first.toml", "first.mocap"), "the saved seeds are accepted by `mocap2d track --seeds`");
   await sp.screenshot({ path: shot.replace(/\.png$/, "-seeds.png"), fullPage: true });
   await sp.click("#track");
   await sp.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className)

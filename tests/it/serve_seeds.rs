@@ -24,15 +24,23 @@ fn bare_clip() -> (tempfile::TempDir, SynthClip) {
     (dir, clip)
 }
 
-fn seeding(dir: &Path, out: &Path) -> Served {
-    let (clip, skel, out) = (
-        dir.join("clip.mp4"),
-        dir.join("joints.toml"),
-        out.to_owned(),
+/// A bare clip ([`bare_clip`]) served for seeding into `seeds.toml` beside it, and its
+/// `GET /api/run`.
+fn seeding() -> (tempfile::TempDir, SynthClip, PathBuf, Served, Value) {
+    let (dir, clip) = bare_clip();
+    let d = dir.path();
+    let (video, skel, out) = (
+        d.join("clip.mp4"),
+        d.join("joints.toml"),
+        d.join("seeds.toml"),
     );
-    Served::start_with(move |stop, ready| {
-        mocap2d::app::serve_seeds(&clip, &skel, &out, 0, stop, ready)
-    })
+    let o = out.clone();
+    let srv = Served::start_with(move |stop, ready| {
+        mocap2d::app::serve_seeds(&video, &skel, &o, 0, stop, ready)
+    });
+    let (st, info) = srv.json("GET", "/api/run", b"");
+    assert_eq!((st, info["mode"].as_str()), (200, Some("seed")), "{info}");
+    (dir, clip, out, srv, info)
 }
 
 /// Every joint as the page sends it: on `clip`'s ground truth of frame `f`, off by up to 1 px
@@ -76,11 +84,7 @@ fn errors(run: &Path, clip: &SynthClip, frames: std::ops::Range<u64>) -> (f32, f
 /// whole clip from it, frames 0 to 19 backward (through the legs crossing), within a few pixels of the ground truth.
 #[test]
 fn seeds_placed_on_a_later_frame_are_saved_and_track_the_whole_clip() {
-    let (dir, clip) = bare_clip();
-    let out = dir.path().join("seeds.toml");
-    let srv = seeding(dir.path(), &out);
-    let (st, info) = srv.json("GET", "/api/run", b"");
-    assert_eq!((st, info["mode"].as_str()), (200, Some("seed")), "{info}");
+    let (dir, clip, out, srv, info) = seeding();
     assert_eq!(
         (&info["width"], &info["height"]),
         (&320.into(), &240.into())
@@ -159,10 +163,7 @@ fn seeds_placed_on_a_later_frame_are_saved_and_track_the_whole_clip() {
 /// is edited by hand, after the page started is never overwritten (409).
 #[test]
 fn bad_seed_saves_write_nothing_and_no_file_is_overwritten() {
-    let (dir, clip) = bare_clip();
-    let out = dir.path().join("seeds.toml");
-    let srv = seeding(dir.path(), &out);
-    let (_, info) = srv.json("GET", "/api/run", b"");
+    let (_dir, clip, out, srv, info) = seeding();
     let good = placed(&info, &clip, 5);
     let with = |f: &dyn Fn(&mut Value)| {
         let mut b = good.clone();
