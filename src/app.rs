@@ -22,7 +22,7 @@ pub use report::{eval, report};
 pub use resume::{resume, ResumeOptions};
 pub use retarget::{check_character, retarget, run_frame, RetargetSummary, RETARGET_DIR};
 pub use review::{review, ReviewSummary, REVIEW_DIR};
-pub use serve::{serve, DEFAULT_PORT};
+pub use serve::{serve, serve_seeds, DEFAULT_PORT};
 pub use track::{
     default_run_dir, track, track_into, OtherClip, TrackOptions, TrackSummary, DEFAULT_SEGMENT_LEN,
 };

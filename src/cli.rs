@@ -45,7 +45,8 @@ pub enum Command {
     Guide(GuideArgs),
     /// Review a run: RUN/review/overlay.mp4, confidence.png and segments.png.
     Review(ReviewArgs),
-    /// Local page (http://127.0.0.1:PORT) to correct a run's segment files in the browser.
+    /// Local page (http://127.0.0.1:PORT) to correct a run's segment files in the browser, or
+    /// (--seeds-out) to place a bare clip's first seeds on any frame.
     Serve(ServeArgs),
     /// Track many clips (optionally retarget and render them): one run folder per clip, a
     /// summary table and batch-summary.csv; --shard splits the batch over machines.

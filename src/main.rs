@@ -343,12 +343,19 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
         }
         Command::Serve(a) => {
             let stop = std::sync::atomic::AtomicBool::new(false);
-            app::serve(&a.run, a.clip.as_deref(), a.port, &stop, |addr| {
-                eprintln!(
-                    "serving {} on http://{addr}/ (this machine only); Ctrl-C to stop",
-                    a.run.display()
-                );
-            })?;
+            let ready = |addr| {
+                let what = match &a.seeds_out {
+                    Some(out) => format!("seeding {} -> {}", a.run.display(), out.display()),
+                    None => format!("serving {}", a.run.display()),
+                };
+                eprintln!("{what} on http://{addr}/ (this machine only); Ctrl-C to stop");
+            };
+            match (&a.seeds_out, &a.skeleton) {
+                (Some(out), Some(skeleton)) => {
+                    app::serve_seeds(&a.run, skeleton, out, a.port, &stop, ready)?
+                }
+                _ => app::serve(&a.run, a.clip.as_deref(), a.port, &stop, ready)?,
+            }
         }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {

@@ -1,10 +1,13 @@
 //! `mocap2d serve RUN [--port 8765]`: the local correction page for a run's segment files (see
-//! [`crate::review::serve`] for the routes and [`crate::review::api`] for what a save writes).
+//! [`crate::review::serve`] for the routes and [`crate::review::api`] for what a save writes);
+//! `mocap2d serve CLIP --skeleton FILE --seeds-out SEEDS.toml`: the page that places a clip's
+//! first seeds (see [`crate::review::seed_api`]).
 
 use crate::error::Result;
 use crate::progress::NoProgress;
 use crate::review::api::{Api, ResumeFn};
-use crate::review::serve::Server;
+use crate::review::seed_api::{SeedApi, TrackFn};
+use crate::review::serve::{Pages, Server};
 use std::net::SocketAddr;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -45,6 +48,46 @@ pub fn serve(
     ready: impl FnOnce(SocketAddr),
 ) -> Result<()> {
     let api = Api::open(run, clip, resume_hook(clip))?;
+    answer(api, port, stop, ready)
+}
+
+/// What the seeding page's "Track" button runs: `mocap2d track CLIP --seeds SEEDS` into the
+/// default run folder.
+fn track_hook() -> Box<TrackFn> {
+    Box::new(|clip: &Path, seeds: &Path| {
+        let s = super::track::track(&super::TrackOptions::new(clip, seeds), &NoProgress)?;
+        Ok(format!(
+            "tracked {} joints over {} frames -> {}. {} Correct it with `mocap2d serve {}`.",
+            s.joints,
+            s.tracked_frames,
+            s.run_dir.display(),
+            s.report,
+            s.run_dir.display()
+        ))
+    })
+}
+
+/// Checks the start (see [`SeedApi::open`]: nothing is written when an input is bad), binds
+/// `127.0.0.1:port`, calls `ready` with the address, then answers the seeding page of `clip`
+/// until `stop` is set.
+pub fn serve_seeds(
+    clip: &Path,
+    skeleton: &Path,
+    seeds_out: &Path,
+    port: u16,
+    stop: &AtomicBool,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<()> {
+    let api = SeedApi::open(clip, skeleton, seeds_out, Some(track_hook()))?;
+    answer(api, port, stop, ready)
+}
+
+fn answer<P: Pages>(
+    api: P,
+    port: u16,
+    stop: &AtomicBool,
+    ready: impl FnOnce(SocketAddr),
+) -> Result<()> {
     let server = Server::bind(api, port)?;
     ready(server.addr());
     server.run(stop);

@@ -103,15 +103,25 @@ fn parse_tolerance(s: &str) -> Result<f64, String> {
 
 #[derive(Debug, clap::Args)]
 pub struct ServeArgs {
-    /// Run folder written by `mocap2d track` (its segments/ folder is what the page edits).
+    /// Run folder written by `mocap2d track` (its segments/ folder is what the page edits); with
+    /// --seeds-out, the clip to place the first seeds on.
+    #[arg(value_name = "RUN_OR_CLIP")]
     pub run: PathBuf,
     /// Port on 127.0.0.1 (0: any free port).
     #[arg(long, default_value_t = mocap2d::app::DEFAULT_PORT)]
     pub port: u16,
     /// The clip the run was tracked from [default: the path in run.toml, or its name beside
     /// the run folder].
-    #[arg(long)]
+    #[arg(long, conflicts_with = "seeds_out")]
     pub clip: Option<PathBuf>,
+    /// Place the first seeds on the clip RUN_OR_CLIP, on any frame, and save them to this new
+    /// seed file (never overwritten once it exists).
+    #[arg(long, value_name = "SEEDS.toml", requires = "skeleton")]
+    pub seeds_out: Option<PathBuf>,
+    /// With --seeds-out: the joints to place, a seed file (its names, parents and rectangles,
+    /// e.g. the starter of `mocap2d guide --seeds-out`).
+    #[arg(long, value_name = "SKELETON.toml", requires = "seeds_out")]
+    pub skeleton: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]

@@ -8,7 +8,7 @@
 use super::data::{is_segment_name, RunData, SEGMENTS_DIR};
 use super::draw::png_bytes;
 use crate::error::{Error, Result};
-use crate::seed::{parse_seeds, to_toml, MIN_BOX_PX};
+use crate::seed::{parse_seeds, to_toml, SeedJoint, MIN_BOX_PX};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -62,14 +62,14 @@ pub struct Api {
 /// A rectangle as the page sends it.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct BoxEdit {
-    name: String,
-    x: f64,
-    y: f64,
-    w: f64,
-    h: f64,
+pub(super) struct BoxEdit {
+    pub(super) name: String,
+    pub(super) x: f64,
+    pub(super) y: f64,
+    pub(super) w: f64,
+    pub(super) h: f64,
     #[serde(default)]
-    angle: f64,
+    pub(super) angle: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -255,14 +255,12 @@ impl Api {
             Ok(p) => p,
             Err(r) => return r,
         };
-        let edit: SaveBody = match serde_json::from_slice(body) {
+        let edit: SaveBody = match json_body(
+            body,
+            r#"{"joints": [{"name", "x", "y", "w", "h", "angle"}, …]}"#,
+        ) {
             Ok(b) => b,
-            Err(e) => {
-                return Reply::error(
-                    400,
-                    format!("malformed body: {e}; send {{\"joints\": [{{\"name\", \"x\", \"y\", \"w\", \"h\", \"angle\"}}, …]}}"),
-                )
-            }
+            Err(r) => return r,
         };
         // One writer at a time: while `track` or `resume` writes the run folder, a save could
         // be overwritten by it, so it is refused (the page keeps the edit to save again).
@@ -281,27 +279,8 @@ impl Api {
             Err(e) => return Reply::error(409, format!("{e}; fix the file by hand first")),
         };
         let mut joints = seeds.joints.clone();
-        let mut seen = vec![false; joints.len()];
-        for b in &edit.joints {
-            let Some(i) = joints.iter().position(|j| j.name == b.name) else {
-                return Reply::error(400, format!("joint {:?} is not in {}", b.name, rel(&path)));
-            };
-            if std::mem::replace(&mut seen[i], true) {
-                return Reply::error(400, format!("joint {:?} is given twice", b.name));
-            }
-            if let Err(msg) = check_box(b) {
-                return Reply::error(400, format!("joint {:?}: {msg}", b.name));
-            }
-            let bb = &mut joints[i].bbox;
-            (bb.cx, bb.cy) = (b.x as f32, b.y as f32);
-            (bb.w, bb.h) = (b.w as u32, b.h as u32);
-            bb.angle_rad = crate::geom::wrap_angle(b.angle as f32);
-        }
-        if let Some(i) = seen.iter().position(|s| !s) {
-            return Reply::error(
-                400,
-                format!("joint {:?} is missing; send every joint", joints[i].name),
-            );
+        if let Err(r) = apply_boxes(&mut joints, &edit.joints, &rel(&path)) {
+            return r;
         }
         let text = to_toml(seeds.frame, &joints, &leading_comment(&old_text));
         let (w, h) = (self.data.manifest.width, self.data.manifest.height);
@@ -344,6 +323,53 @@ impl Api {
             Err(e) if e.is_user_error() => Reply::error(400, e.to_string()),
             Err(e) => Reply::error(500, e.to_string()),
         }
+    }
+}
+
+/// The JSON request `body`, or a 400 reply saying it is malformed and to send `shape`.
+pub(super) fn json_body<T: serde::de::DeserializeOwned>(
+    body: &[u8],
+    shape: &str,
+) -> std::result::Result<T, Reply> {
+    serde_json::from_slice(body)
+        .map_err(|e| Reply::error(400, format!("malformed body: {e}; send {shape}")))
+}
+
+/// Sets each of `joints`' rectangle from the page's `edits`, which must give every joint once
+/// (their names as in `file`, for messages); else the 400 reply saying why.
+pub(super) fn apply_boxes(
+    joints: &mut [SeedJoint],
+    edits: &[BoxEdit],
+    file: &str,
+) -> std::result::Result<(), Reply> {
+    let mut seen = vec![false; joints.len()];
+    for b in edits {
+        let Some(i) = joints.iter().position(|j| j.name == b.name) else {
+            return Err(Reply::error(
+                400,
+                format!("joint {:?} is not in {file}", b.name),
+            ));
+        };
+        if std::mem::replace(&mut seen[i], true) {
+            return Err(Reply::error(
+                400,
+                format!("joint {:?} is given twice", b.name),
+            ));
+        }
+        if let Err(msg) = check_box(b) {
+            return Err(Reply::error(400, format!("joint {:?}: {msg}", b.name)));
+        }
+        let bb = &mut joints[i].bbox;
+        (bb.cx, bb.cy) = (b.x as f32, b.y as f32);
+        (bb.w, bb.h) = (b.w as u32, b.h as u32);
+        bb.angle_rad = crate::geom::wrap_angle(b.angle as f32);
+    }
+    match seen.iter().position(|s| !s) {
+        Some(i) => Err(Reply::error(
+            400,
+            format!("joint {:?} is missing; send every joint", joints[i].name),
+        )),
+        None => Ok(()),
     }
 }
 

@@ -13,7 +13,7 @@
 //!   keys in frame order ([`crate::run::keys::to_text`]): the user's comments in it are not
 //!   kept.
 
-use super::api::{Api, Reply};
+use super::api::{json_body, Api, Reply};
 use super::draw::png_bytes;
 use crate::decode::FrameSource;
 use crate::error::Error;
@@ -150,62 +150,16 @@ impl Api {
 
     /// `GET /api/frames/N/frame.png`.
     pub fn any_frame_png(&self, n: &str) -> Reply {
-        let Ok(f) = n.parse::<u64>() else {
-            return Reply::error(404, format!("no frame {n:?}: frames are numbers"));
-        };
-        let mut d = self
-            .any_frame
-            .decoder
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
-        if let Some((_, png)) = d.recent.iter().find(|(g, _)| *g == f) {
-            return png_reply(png);
-        }
-        if d.source.as_ref().is_none_or(|(_, next)| *next > f) {
-            match crate::decode::open(&self.clip, Some(self.data.manifest.fps)) {
-                Ok(s) => d.source = Some((s, 0)),
-                Err(e) => return Reply::error(500, e.to_string()),
-            }
-        }
-        let (source, next) = d.source.as_mut().expect("opened above");
-        let img = loop {
-            match source.next_frame() {
-                Ok(Some(img)) if *next == f => {
-                    *next += 1;
-                    break img;
-                }
-                Ok(Some(_)) => *next += 1,
-                Ok(None) => {
-                    d.source = None;
-                    return Reply::error(
-                        404,
-                        format!("frame {f} is beyond the clip {}", self.clip.display()),
-                    );
-                }
-                Err(e) => {
-                    d.source = None;
-                    return Reply::error(500, e.to_string());
-                }
-            }
-        };
-        let png = Arc::new(png_bytes(&img));
-        if d.recent.len() >= KEEP_FRAMES {
-            d.recent.pop_front();
-        }
-        d.recent.push_back((f, png.clone()));
-        png_reply(&png)
+        self.any_frame
+            .png(&self.clip, Some(self.data.manifest.fps), n)
     }
 
     /// `POST /api/keys` (see the module doc).
     pub fn save_key(&self, body: &[u8]) -> Reply {
-        let edit: KeyBody = match serde_json::from_slice(body) {
+        let edit: KeyBody = match json_body(body, r#"{"frame": N, "joints": {"name": [x, y], …}}"#)
+        {
             Ok(b) => b,
-            Err(e) => {
-                return Reply::error(
-                    400,
-                    format!("malformed body: {e}; send {{\"frame\": N, \"joints\": {{\"name\": [x, y], …}}}}"),
-                )
-            }
+            Err(r) => return r,
         };
         let names = self.names();
         let m = &self.data.manifest;
@@ -325,6 +279,53 @@ impl Api {
             ),
             Err(e) => Reply::error(500, e.to_string()),
         }
+    }
+}
+
+impl FrameCache {
+    /// Frame `n` (digits) of `clip` decoded at `fps`, as a PNG reply: 404 for a frame that is
+    /// not a number or is beyond the clip.
+    pub fn png(&self, clip: &std::path::Path, fps: Option<f64>, n: &str) -> Reply {
+        let Ok(f) = n.parse::<u64>() else {
+            return Reply::error(404, format!("no frame {n:?}: frames are numbers"));
+        };
+        let mut d = self.decoder.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, png)) = d.recent.iter().find(|(g, _)| *g == f) {
+            return png_reply(png);
+        }
+        if d.source.as_ref().is_none_or(|(_, next)| *next > f) {
+            match crate::decode::open(clip, fps) {
+                Ok(s) => d.source = Some((s, 0)),
+                Err(e) => return Reply::error(500, e.to_string()),
+            }
+        }
+        let (source, next) = d.source.as_mut().expect("opened above");
+        let img = loop {
+            match source.next_frame() {
+                Ok(Some(img)) if *next == f => {
+                    *next += 1;
+                    break img;
+                }
+                Ok(Some(_)) => *next += 1,
+                Ok(None) => {
+                    d.source = None;
+                    return Reply::error(
+                        404,
+                        format!("frame {f} is beyond the clip {}", clip.display()),
+                    );
+                }
+                Err(e) => {
+                    d.source = None;
+                    return Reply::error(500, e.to_string());
+                }
+            }
+        };
+        let png = Arc::new(png_bytes(&img));
+        if d.recent.len() >= KEEP_FRAMES {
+            d.recent.pop_front();
+        }
+        d.recent.push_back((f, png.clone()));
+        png_reply(&png)
     }
 }
 

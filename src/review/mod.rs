@@ -9,6 +9,7 @@ pub mod guide;
 pub mod keys_api;
 pub mod overlay;
 pub mod plot;
+pub mod seed_api;
 pub mod serve;
 pub mod sheet;
 pub mod thin;

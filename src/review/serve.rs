@@ -2,7 +2,7 @@
 //! page's HTML, script and style are compiled into the binary (no CDN: it works offline).
 //!
 //! Routes (anything else is 404; a wrong method 405):
-//! - `GET /`, `/app.js`, `/keys.js`, `/style.css`: the page.
+//! - `GET /`, `/app.js`, `/keys.js`, `/seeds.js`, `/style.css`: the page.
 //! - `GET /api/run`: segments with flags, joints, frame size.
 //! - `GET /api/segments/ID`, `GET /api/segments/ID/frame.png`: one segment.
 //! - `POST /api/segments/ID`: save edited rectangles (JSON, at most [`MAX_BODY`] bytes).
@@ -11,8 +11,13 @@
 //! - `GET /api/frames/N`, `GET /api/frames/N/frame.png`: any tracked frame, its joints and keys.
 //! - `POST /api/keys`: save a key on any frame into `keys.toml` (see [`super::keys_api`]).
 //!
+//! The seeding page of a bare clip (`serve CLIP --seeds-out FILE`) answers `GET /api/run`,
+//! `GET /api/frames/N/frame.png`, `POST /api/seeds` and `POST /api/seeds/track` instead (see
+//! [`super::seed_api`]).
+//!
 //! Segment ids and frame numbers are digits, and every file served or written is a segment
-//! file or `keys.toml` of the run folder, the clip, or an embedded asset, so no request reaches a path outside the run folder. Requests
+//! file or `keys.toml` of the run folder, the seed file named at start, the clip, or an embedded
+//! asset, so no request reaches any other path. Requests
 //! whose `Host` is not this server's loopback address are refused (403), so a web page elsewhere
 //! cannot reach the server through a DNS name pointed at 127.0.0.1. A handler that panics
 //! answers 500 and the server carries on.
@@ -45,12 +50,26 @@ pub const MAX_CONNECTIONS: usize = 32;
 const INDEX_HTML: &str = include_str!("assets/index.html");
 const APP_JS: &str = include_str!("assets/app.js");
 const KEYS_JS: &str = include_str!("assets/keys.js");
+const SEEDS_JS: &str = include_str!("assets/seeds.js");
 const STYLE_CSS: &str = include_str!("assets/style.css");
 
-/// The correction server: a bound socket and the run it serves.
-pub struct Server {
+/// What a server answers: the correction page of a run ([`Api`], routes in [`route`]) or the
+/// seeding page of a bare clip ([`super::seed_api::SeedApi`]).
+pub trait Pages: Send + Sync {
+    /// The reply to one request read in full.
+    fn answer(&self, method: &str, url: &str, body: &[u8]) -> Reply;
+}
+
+impl Pages for Api {
+    fn answer(&self, method: &str, url: &str, body: &[u8]) -> Reply {
+        route(self, method, url, body)
+    }
+}
+
+/// The server: a bound socket and the pages it serves.
+pub struct Server<P: Pages = Api> {
     listener: TcpListener,
-    api: Api,
+    api: P,
     addr: SocketAddr,
     /// Saves from the page, one at a time (the run folder's lock keeps other processes out).
     saving: std::sync::Mutex<()>,
@@ -74,9 +93,9 @@ impl Request {
     }
 }
 
-impl Server {
+impl<P: Pages> Server<P> {
     /// Binds `127.0.0.1:port` (0 = any free port).
-    pub fn bind(api: Api, port: u16) -> Result<Server> {
+    pub fn bind(api: P, port: u16) -> Result<Server<P>> {
         let listen = || -> std::io::Result<(TcpListener, SocketAddr)> {
             let l = TcpListener::bind(("127.0.0.1", port))?;
             l.set_nonblocking(true)?;
@@ -305,7 +324,7 @@ impl Server {
             // folder makes a save answer 409 (see `Api::save`).
             let _one = (req.method == "POST")
                 .then(|| self.saving.lock().unwrap_or_else(|e| e.into_inner()));
-            route(&self.api, &req.method, &req.target, &req.body)
+            self.api.answer(&req.method, &req.target, &req.body)
         };
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(route))
             .unwrap_or_else(|_| Reply::error(500, "internal error; see the server's terminal"))
@@ -367,29 +386,49 @@ fn reason(status: u16) -> &'static str {
     }
 }
 
-/// Answers one request (see the module doc for the routes).
-pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
+/// A request's path (without query or fragment) and its parts split at `/`.
+pub(super) fn path_parts(url: &str) -> (&str, Vec<&str>) {
     let path = url.split(['?', '#']).next().unwrap_or("");
+    (path, path.split('/').collect())
+}
+
+/// The page itself (HTML, scripts, style) for a request of it, else `None`.
+pub(super) fn page_asset(method: &str, path: &str) -> Option<Reply> {
     let asset = |ct: &'static str, s: &str| Reply {
         status: 200,
         content_type: ct,
         body: s.as_bytes().to_vec(),
     };
-    let parts: Vec<&str> = path.split('/').collect();
+    let (html, js, css) = (
+        "text/html; charset=utf-8",
+        "text/javascript; charset=utf-8",
+        "text/css; charset=utf-8",
+    );
+    let reply = match path {
+        "/" | "/index.html" => asset(html, INDEX_HTML),
+        "/app.js" => asset(js, APP_JS),
+        "/keys.js" => asset(js, KEYS_JS),
+        "/seeds.js" => asset(js, SEEDS_JS),
+        "/style.css" => asset(css, STYLE_CSS),
+        _ => return None,
+    };
+    Some(if method == "GET" || method == "HEAD" {
+        reply
+    } else {
+        Reply::error(405, format!("{method} is not allowed on {path}"))
+    })
+}
+
+/// Answers one request (see the module doc for the routes).
+pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
+    let (path, parts) = path_parts(url);
+    if let Some(r) = page_asset(method, path) {
+        return r;
+    }
     let get = method == "GET" || method == "HEAD";
     let post = method == "POST";
     let wrong = || Reply::error(405, format!("{method} is not allowed on {path}"));
     match parts.as_slice() {
-        ["", ""] | ["", "index.html"] => {
-            if get {
-                asset("text/html; charset=utf-8", INDEX_HTML)
-            } else {
-                wrong()
-            }
-        }
-        ["", "app.js"] if get => asset("text/javascript; charset=utf-8", APP_JS),
-        ["", "keys.js"] if get => asset("text/javascript; charset=utf-8", KEYS_JS),
-        ["", "style.css"] if get => asset("text/css; charset=utf-8", STYLE_CSS),
         ["", "api", "run"] if get => api.run_info(),
         ["", "api", "segments", id] if get => api.segment(id),
         ["", "api", "segments", id] if post => api.save(id, body),
@@ -398,7 +437,7 @@ pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
         ["", "api", "frames", n] if get => api.frame_info(n),
         ["", "api", "frames", n, "frame.png"] if get => api.any_frame_png(n),
         ["", "api", "keys"] if post => api.save_key(body),
-        ["", "app.js" | "keys.js" | "style.css"] | ["", "api", "run"] => wrong(),
+        ["", "api", "run"] => wrong(),
         ["", "api", "segments", _] | ["", "api", "segments", _, "frame.png" | "resume"] => wrong(),
         ["", "api", "frames", _] | ["", "api", "frames", _, "frame.png"] | ["", "api", "keys"] => {
             wrong()

@@ -2,7 +2,9 @@
 // driven by playwright-core): render and track a tiny synth clip, give the run a segment file,
 // start `mocap2d serve`, drag the head's rectangle, rotate the wrist's, save, and check that the
 // segment file changed by the dragged amounts; then go to frame 12, drag the left knee, save a
-// key and check keys.toml holds it. Leaves screenshots of the page.
+// key and check keys.toml holds it. Then the seeding page of the bare clip (`serve clip.mp4
+// --skeleton joints.toml --seeds-out first.toml`): go to frame 20, drag the head, save the seeds,
+// check the file and that `track` reads it, and track from the page. Leaves screenshots.
 //
 //   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default target/debug/mocap2d;
 //                                          CHROMIUM: default /usr/bin/chromium;
@@ -32,6 +34,15 @@ function joint(text, name) {
   return { x: num("x"), y: num("y"), w: num("w"), h: num("h"), angle: num("angle") };
 }
 
+/** Drags on `page` from (x, y) by (dx, dy) screen px, in two halves of 4 steps. */
+async function drag(page, x, y, dx, dy) {
+  await page.mouse.move(x, y);
+  await page.mouse.down();
+  await page.mouse.move(x + dx / 2, y + dy / 2, { steps: 4 });
+  await page.mouse.move(x + dx, y + dy, { steps: 4 });
+  await page.mouse.up();
+}
+
 const work = fs.mkdtempSync(path.join(os.tmpdir(), "mocap2d-e2e-"));
 const run = (...args) => execFileSync(bin, args, { cwd: work, stdio: ["ignore", "pipe", "pipe"] });
 run("synth", "walk", "--out", ".", "--size", "320x240", "--frames", "30", "--seed", "5");
@@ -40,17 +51,34 @@ run("track", "clip.mp4", "--seeds", "joints.toml", "--out", "r.mocap", "-q");
 // `track` wrote segments/000.toml (the seed frame): the page edits that one.
 const segFile = path.join(work, "r.mocap/segments/000.toml");
 
-const server = spawn(bin, ["serve", "r.mocap", "--port", "0"], { cwd: work });
-const url = await new Promise((resolve, reject) => {
-  let err = "";
-  server.stderr.on("data", (d) => {
-    err += d;
-    const m = err.match(/http:\/\/127\.0\.0\.1:\d+\//);
-    if (m) resolve(m[0]);
+/** Whether `mocap2d track clip.mp4 --seeds SEEDS --out OUT` succeeds (its stderr printed if not). */
+function tracks(seeds, out) {
+  try {
+    run("track", "clip.mp4", "--seeds", seeds, "--out", out, "-q");
+    return true;
+  } catch (e) {
+    console.log(String(e.stderr));
+    return false;
+  }
+}
+
+/** Starts `mocap2d serve ARGS --port 0` in the work folder: the process and its address. */
+async function serve(...args) {
+  const proc = spawn(bin, ["serve", ...args, "--port", "0"], { cwd: work });
+  const addr = await new Promise((resolve, reject) => {
+    let err = "";
+    proc.stderr.on("data", (d) => {
+      err += d;
+      const m = err.match(/http:\/\/127\.0\.0\.1:\d+\//);
+      if (m) resolve(m[0]);
+    });
+    proc.on("exit", (c) => reject(new Error(`serve exited with ${c}: ${err}`)));
+    setTimeout(() => reject(new Error(`serve did not start: ${err}`)), 20000);
   });
-  server.on("exit", (c) => reject(new Error(`serve exited with ${c}: ${err}`)));
-  setTimeout(() => reject(new Error(`serve did not start: ${err}`)), 20000);
-});
+  return [proc, addr];
+}
+const [server, url] = await serve("r.mocap");
+let seeder = null;
 
 const browser = await chromium.launch({
   executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
@@ -76,11 +104,7 @@ try {
   // Drag the head 40 px right and 24 px up on screen.
   const box = await head.boundingBox();
   const [cx, cy] = [Math.round(box.x + box.width / 2), Math.round(box.y + box.height / 2)];
-  await page.mouse.move(cx, cy);
-  await page.mouse.down();
-  await page.mouse.move(cx + 20, cy - 12, { steps: 4 });
-  await page.mouse.move(cx + 40, cy - 24, { steps: 4 });
-  await page.mouse.up();
+  await drag(page, cx, cy, 40, -24);
 
   // Select the left wrist (handles show on the selected rectangle only) and turn it to point
   // straight down (+90°, clockwise on screen).
@@ -113,14 +137,7 @@ try {
   check(Math.abs(angle - Math.PI / 2) < 0.1, `wrist_l turned to ${angle} rad (want about ${(Math.PI / 2).toFixed(4)})`);
   check(fs.existsSync(path.join(work, "r.mocap/segments/history/000.001.toml")), "previous version kept in segments/history");
   // The file is still a seed file: the tool itself must accept it as seeds.
-  let parses = true;
-  try {
-    run("track", "clip.mp4", "--seeds", "r.mocap/segments/000.toml", "--out", "again.mocap", "-q");
-  } catch (e) {
-    parses = false;
-    console.log(String(e.stderr));
-  }
-  check(parses, "saved segment file is accepted by `mocap2d track --seeds`");
+  check(tracks("r.mocap/segments/000.toml", "again.mocap"), "saved segment file is accepted by `mocap2d track --seeds`");
 
   await page.click("#resume");
   await page.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className), null, { timeout: 120000 });
@@ -150,11 +167,7 @@ try {
   });
   const kb = await knee.boundingBox();
   const [kx, ky] = [kb.x + kb.width / 2, kb.y + kb.height / 2];
-  await page.mouse.move(kx, ky);
-  await page.mouse.down();
-  await page.mouse.move(kx + 15, ky + 5, { steps: 4 });
-  await page.mouse.move(kx + 30, ky + 10, { steps: 4 });
-  await page.mouse.up();
+  await drag(page, kx, ky, 30, 10);
   await page.click("#savekey");
   await page.waitForFunction(() => /Saved keys|Not saved/.test(document.querySelector("#message").textContent));
   const kmsg = await page.textContent("#message");
@@ -186,9 +199,59 @@ try {
   check(km && row && Math.abs(Number(row[2]) - Number(km[1])) < 1e-3
     && Math.abs(Number(row[3]) - Number(km[2])) < 1e-3 && row[6] === "seed",
     `after resume, knee_l on frame 12 is on its key as a seed: ${row}`);
+
+  // The first seeds of the bare clip: the skeleton's rectangles over frame 20, the head dragged.
+  let seedUrl;
+  [seeder, seedUrl] = await serve("clip.mp4", "--skeleton", "joints.toml", "--seeds-out", "first.toml");
+  const sp = await browser.newPage({ viewport: { width: 1000, height: 720 } });
+  sp.on("pageerror", (e) => check(false, `no script error on the seeding page (${e.message})`));
+  const asked = [];
+  sp.on("dialog", (d) => { asked.push(d.message()); d.accept(); });
+  await sp.goto(seedUrl);
+  await sp.locator('g.joint[data-name="head"] rect.body').waitFor();
+  await sp.fill("#frameno", "20");
+  await sp.click("#go");
+  await sp.waitForFunction(() => {
+    const im = document.querySelector("#stage image");
+    return im && im.getAttribute("href").endsWith("/20/frame.png") && im.getBBox().width > 0;
+  });
+  const sscale = await sp.evaluate(() => {
+    const svg = document.querySelector("#stage");
+    return svg.getBoundingClientRect().width / svg.viewBox.baseVal.width;
+  });
+  const sb = await sp.locator('g.joint[data-name="head"] rect.body').boundingBox();
+  const [sx, sy] = [Math.round(sb.x + sb.width / 2), Math.round(sb.y + sb.height / 2)];
+  await drag(sp, sx, sy, 30, 12);
+  const placedText = await sp.textContent("#placed");
+  check(placedText.startsWith("1 of 14 joints placed"), `placed count: ${placedText}`);
+  await sp.click("#save");
+  await sp.waitForFunction(() => /Saved|Not saved/.test(document.querySelector("#message").textContent));
+  const smsg = await sp.textContent("#message");
+  check(smsg.startsWith("Saved first.toml (seeds on frame 20)"), `seed save reported: ${smsg}`);
+  check(asked.length === 1 && asked[0].includes("Not placed yet"), `asked before saving unplaced joints: ${asked}`);
+  const first = fs.readFileSync(path.join(work, "first.toml"), "utf8");
+  const skel = fs.readFileSync(path.join(work, "joints.toml"), "utf8");
+  const [h0, h1] = [joint(skel, "head"), joint(first, "head")];
+  const stol = 0.51 / sscale;
+  check(/^frame = 20$/m.test(first) && Math.abs(h1.x - h0.x - 30 / sscale) <= stol
+    && Math.abs(h1.y - h0.y - 12 / sscale) <= stol && h1.w === h0.w,
+    `first.toml: frame 20, head moved by (${(h1.x - h0.x).toFixed(3)}, ${(h1.y - h0.y).toFixed(3)}); dragged (${(30 / sscale).toFixed(3)}, ${(12 / sscale).toFixed(3)})`);
+  const k1 = [joint(skel, "knee_l"), joint(first, "knee_l")];
+  check(Math.abs(k1[0].x - k1[1].x) < 1e-3 && Math.abs(k1[0].y - k1[1].y) < 1e-3, "an unmoved joint is saved where it was");
+  const cmd = await sp.textContent("#seedcmd");
+  check(cmd.includes("mocap2d track clip.mp4 --seeds first.toml"), `the page says how to track: ${cmd}`);
+  check(tracks("first.toml", "first.mocap"), "the saved seeds are accepted by `mocap2d track --seeds`");
+  await sp.screenshot({ path: shot.replace(/\.png$/, "-seeds.png"), fullPage: true });
+  await sp.click("#track");
+  await sp.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className)
+    && !/^Tracking/.test(document.querySelector("#message").textContent), null, { timeout: 120000 });
+  const tmsg = await sp.textContent("#message");
+  check(tmsg.startsWith("tracked 14 joints over 30 frames") && fs.existsSync(path.join(work, "clip.mocap/tracks.csv")),
+    `Track on the page answers: ${tmsg}`);
 } finally {
   await browser.close();
   server.kill();
+  if (seeder) seeder.kill();
   fs.rmSync(work, { recursive: true, force: true });
 }
 console.log(`browser: ${failures ? 0 : 1} passed, ${failures ? 1 : 0} failed`);

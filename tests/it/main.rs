@@ -27,5 +27,6 @@ mod seeds;
 mod segments;
 mod serve;
 mod serve_keys;
+mod serve_seeds;
 mod signals;
 mod synth;

@@ -71,11 +71,19 @@ pub(crate) struct Served {
 
 impl Served {
     pub(crate) fn start(run: &Path) -> Served {
+        let run = run.to_owned();
+        Served::start_with(move |stop, ready| mocap2d::app::serve(&run, None, 0, stop, ready))
+    }
+
+    /// A server started by `serve(stop, ready)` (one of the app's serve functions on port 0).
+    pub(crate) fn start_with(
+        serve: impl FnOnce(&AtomicBool, &dyn Fn(SocketAddr)) -> mocap2d::Result<()> + Send + 'static,
+    ) -> Served {
         let stop = Arc::new(AtomicBool::new(false));
         let (tx, rx) = std::sync::mpsc::channel();
-        let (run, s) = (run.to_owned(), stop.clone());
+        let s = stop.clone();
         let thread = std::thread::spawn(move || {
-            mocap2d::app::serve(&run, None, 0, &s, |a| tx.send(a).unwrap()).unwrap();
+            serve(&s, &|a| tx.send(a).unwrap()).unwrap();
         });
         let addr = rx.recv().unwrap();
         Served {

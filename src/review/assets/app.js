@@ -1,6 +1,6 @@
 // mocap2d correction page: lists the run's segments, shows one segment's first frame with its
 // joint rectangles, lets them be moved, resized and rotated, and saves them back to the
-// segment file. Keys on any frame are keys.js. No libraries: plain DOM and SVG, served by `mocap2d serve`.
+// segment file. Keys on any frame are keys.js; the first seeds of a bare clip, seeds.js. No libraries: plain DOM and SVG, served by `mocap2d serve`.
 "use strict";
 
 const SVG = "http://www.w3.org/2000/svg";
@@ -37,7 +37,8 @@ async function loadRun() {
   const r = await call("/api/run");
   if (!r.ok) { say(r.body ? r.body.error : "cannot read the run", "error"); return; }
   run = r.body;
-  $("#run").textContent = `${run.run}  (${run.width}×${run.height}, ${run.frames} frames)`;
+  const frames = run.frames == null ? "" : `, ${run.frames} frames`;
+  $("#run").textContent = `${run.run}  (${run.width}×${run.height}${frames})`;
   renderList();
 }
 
@@ -72,6 +73,7 @@ async function openSegment(id) {
   const r = await call(`/api/segments/${id}`);
   if (!r.ok) { say(r.body.error, "error"); return; }
   seg = r.body;
+  seg.png = `/api/segments/${id}/frame.png`;
   joints = seg.joints.map((j) => ({ ...j }));
   selected = null;
   setDirty(false);
@@ -116,8 +118,7 @@ function frameStage(svg, width, height, scale, href, bonesId) {
 }
 
 function buildStage() {
-  const svg = frameStage($("#stage"), seg.width, seg.height, displayScale(),
-    `/api/segments/${seg.id}/frame.png`, "bones");
+  const svg = frameStage($("#stage"), seg.width, seg.height, displayScale(), seg.png, "bones");
   for (const j of joints) {
     const g = document.createElementNS(SVG, "g");
     g.classList.add("joint");
@@ -159,6 +160,7 @@ function update() {
     const g = svg.querySelector(`g.joint[data-name="${CSS.escape(j.name)}"]`);
     g.setAttribute("transform", `translate(${j.x} ${j.y}) rotate(${(j.angle * 180) / Math.PI})`);
     g.classList.toggle("selected", j.name === selected);
+    g.classList.toggle("unplaced", j.placed === false);
     const [body, tick, stick, resize, rotate] = g.children;
     body.setAttribute("x", -j.w / 2); body.setAttribute("y", -j.h / 2);
     body.setAttribute("width", j.w); body.setAttribute("height", j.h);
@@ -189,6 +191,7 @@ function update() {
     bones.appendChild(l);
   }
   renderTable();
+  if (run.mode === "seed") showPlaced();
 }
 
 function renderTable() {
@@ -199,7 +202,8 @@ function renderTable() {
     tr.dataset.name = j.name;
     if (j.name === selected) tr.className = "selected";
     const cells = [j.name, j.x.toFixed(3), j.y.toFixed(3), j.w, j.h,
-      ((j.angle * 180) / Math.PI).toFixed(1), j.status || "", j.score == null ? "" : j.score.toFixed(3)];
+      ((j.angle * 180) / Math.PI).toFixed(1), j.placed === false ? "to place" : j.status || "",
+      j.score == null ? "" : j.score.toFixed(3)];
     for (const c of cells) {
       const td = document.createElement("td");
       td.textContent = c;
@@ -247,6 +251,7 @@ function pointerMove(ev) {
   } else if (drag.mode === "rotate") {
     j.angle = Math.atan2(p.y - o.y, p.x - o.x);
   }
+  j.placed = true;
   setDirty(true);
   update();
 }
@@ -260,6 +265,7 @@ document.addEventListener("keydown", (ev) => {
   if (!d) return;
   const j = joints.find((k) => k.name === selected);
   j.x += d[0]; j.y += d[1];
+  j.placed = true;
   setDirty(true);
   update();
   ev.preventDefault();
@@ -294,6 +300,7 @@ $("#resume").onclick = resume;
 window.addEventListener("beforeunload", (ev) => { if (dirty) ev.preventDefault(); });
 
 loadRun().then(() => {
+  if (run.mode === "seed") { startSeeds(); return; }
   const want = location.hash.slice(1);
   if (/^f[0-9]+$/.test(want)) { openFrame(Number(want.slice(1))); return; }
   const first = run.segments.find((s) => s.id === want) || run.segments.find((s) => s.flagged) || run.segments[0];
