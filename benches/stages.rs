@@ -109,7 +109,7 @@ impl Clip {
 
     /// The plate `track` makes of this clip.
     fn background(&self) -> Background {
-        app::median_background(&self.path, None, Some(&self.seeds))
+        mocap2d::background::median_background(&self.path, None, Some(&self.seeds))
             .unwrap()
             .0
     }
