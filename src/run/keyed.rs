@@ -83,35 +83,38 @@ pub const TRACKER_HIT_PX: f32 = 2.0;
 /// Lucas–Kanade (see [`keep_tracker`]).
 pub const FLOW_LEADS_OK_SHARE: f32 = 0.5;
 
-/// Which joints keep the appearance tracker's path between two keys (the rest take
-/// [`solve`]'s), from `misses[j]` = how far the tracker's ways and Lucas–Kanade's landed from
-/// the keys (px; `None` without a key at the far end, kept), and `ok_share`, the share of the
-/// span's joint-frames the tracker called `ok` (docs/method.md, "Motion between keys"):
-/// - a tracker within [`TRACKER_HIT_PX`] of the keys is kept;
-/// - the span is *led by flow* when the tracker lost most of it (`ok_share` under
-///   [`FLOW_LEADS_OK_SHARE`]) or Lucas–Kanade landed nearer the keys than the tracker for the
-///   median joint (`ln((m_LK + 1) / (m_T + 1))`); there every other joint takes the solved path;
-/// - otherwise a joint takes the solved path only where Lucas–Kanade landed at under
-///   [`LK_MARGIN`] of the tracker's miss.
+/// Whether the span between two keys is *led by flow* (docs/method.md, "Motion between keys"),
+/// from `misses[j]` = how far the tracker's ways and Lucas–Kanade's landed from the keys (px;
+/// `None` without a key at the far end) and `ok_share`, the share of the span's joint-frames
+/// the tracker called `ok`: the tracker lost most of it (`ok_share` under
+/// [`FLOW_LEADS_OK_SHARE`]), or Lucas–Kanade landed nearer the keys than the tracker for the
+/// median joint (`ln((m_LK + 1) / (m_T + 1)) < 0`).
 ///
 /// Which cue follows the joints depends on the footage: on flat-coloured drawings the tracker
 /// lands on the keys and Lucas–Kanade slides along uniform limbs; on real video the tracker
 /// loses limbs that Lucas–Kanade follows. The keys at both ends say which this span is.
-pub fn keep_tracker(misses: &[Option<(f32, f32)>], ok_share: f32) -> Vec<bool> {
+pub fn flow_leads(misses: &[Option<(f32, f32)>], ok_share: f32) -> bool {
     let mut ratios: Vec<f32> = misses
         .iter()
         .flatten()
         .map(|&(t, lk)| ((lk + 1.0) / (t + 1.0)).ln())
         .collect();
     ratios.sort_by(f32::total_cmp);
-    let flow_leads =
-        ok_share < FLOW_LEADS_OK_SHARE || ratios.get(ratios.len() / 2).is_some_and(|&r| r < 0.0);
+    ok_share < FLOW_LEADS_OK_SHARE || ratios.get(ratios.len() / 2).is_some_and(|&r| r < 0.0)
+}
+
+/// Which joints keep the appearance tracker's path between two keys (the rest take
+/// [`solve`]'s), `misses` as for [`flow_leads`]: a joint without a key at the far end, or whose
+/// tracker landed within [`TRACKER_HIT_PX`] of the keys, is kept; in a span led by flow every
+/// other joint takes the solved path; otherwise only where Lucas–Kanade landed at under
+/// [`LK_MARGIN`] of the tracker's miss.
+pub fn keep_tracker(misses: &[Option<(f32, f32)>], led_by_flow: bool) -> Vec<bool> {
     misses
         .iter()
         .map(|m| match *m {
             None => true,
             Some((t, _)) if t <= TRACKER_HIT_PX => true,
-            Some(_) if flow_leads => false,
+            Some(_) if led_by_flow => false,
             Some((t, lk)) => lk >= LK_MARGIN * t,
         })
         .collect()
@@ -314,8 +317,9 @@ mod tests {
 
     #[test]
     fn the_keys_say_which_cue_leads_a_span() {
-        // The tracker hit the keys for most joints and called the span ok: only a joint whose
-        // tracker missed and whose Lucas–Kanade landed at under half the miss takes the flow.
+        // The tracker hit the keys for most joints and called the span ok: not led by flow, and
+        // only a joint whose tracker missed and whose Lucas–Kanade landed at under half the
+        // miss takes the flow.
         let drawn = [
             Some((1.0, 9.0)),
             Some((1.5, 12.0)),
@@ -323,7 +327,8 @@ mod tests {
             Some((20.0, 15.0)),
             None,
         ];
-        assert_eq!(keep_tracker(&drawn, 0.9), [true, true, false, true, true]);
+        assert!(!flow_leads(&drawn, 0.9));
+        assert_eq!(keep_tracker(&drawn, false), [true, true, false, true, true]);
         // Lucas–Kanade landed nearer for most joints: every joint the tracker missed follows it.
         let video = [
             Some((60.0, 20.0)),
@@ -331,9 +336,11 @@ mod tests {
             Some((1.0, 9.0)),
             Some((20.0, 15.0)),
         ];
-        assert_eq!(keep_tracker(&video, 0.9), [false, false, true, false]);
+        assert!(flow_leads(&video, 0.9));
+        assert_eq!(keep_tracker(&video, true), [false, false, true, false]);
         // The tracker lost most joint-frames: the flow leads even where it landed no nearer.
-        assert_eq!(keep_tracker(&drawn, 0.3), [true, true, false, false, true]);
+        assert!(flow_leads(&drawn, 0.3));
+        assert_eq!(keep_tracker(&drawn, true), [true, true, false, false, true]);
     }
 
     #[test]

@@ -266,7 +266,7 @@ impl Session {
                     .filter(|&&ok| ok)
                     .count();
                 let ok_share = seen as f32 / track_ok[*ia..=*ib].iter().flatten().count() as f32;
-                let keep_blend = keyed::keep_tracker(&misses, ok_share);
+                let keep_blend = keyed::keep_tracker(&misses, keyed::flow_leads(&misses, ok_share));
                 let blend_kept = *ib == top && end.is_some() && back_here.is_some();
                 let len = (ib - ia) as f32;
                 for (t, row) in solved.rows.iter().enumerate().skip(1) {
