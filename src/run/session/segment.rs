@@ -73,6 +73,16 @@ impl Session {
             }
         }
         let hold = end.is_some() || !inner.is_empty() || key_next.is_some();
+        // Between two corrections with no key inside, the passes that only feed the blend wait
+        // until the span is known not to be led by flow ([`keyed::flow_leads`]): where it is,
+        // the carried pass and the one backward from the correction decide, at two passes'
+        // cost instead of five.
+        let lean = corrected && end.is_some() && inner.is_empty() && key_next.is_none();
+        let deferred: Vec<Pass> = if lean {
+            forward.split_off(1)
+        } else {
+            Vec::new()
+        };
         let mut held: Vec<RgbImage> = Vec::new();
         let mut boundary: Option<RgbImage> = None;
         while let Some((idx, frame)) = frames.next()? {
@@ -128,16 +138,16 @@ impl Session {
         };
         // The tracker built on the next correction, run backward to this segment's start.
         let mut back_here: Option<Vec<Vec<Point>>> = None;
+        // Set when the span was found led by flow before the blend (see `lean`).
+        let mut led_early: Option<bool> = None;
+        let mut early_pyramids: Option<Vec<GreyPyramid>> = None;
         let passes = if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
             let n = held.len();
-            let mut passes = Vec::new();
-            // Between two corrections, the passes that start on them decide: the carried tracker
-            // adds nothing there (on flies, 12 files corrected, it cost 1.5 points).
-            if !corrected {
-                passes.push(between(&out, n));
-            }
-            passes.extend(forward.iter().map(|p| between(p, n)));
+            let mut passes: Vec<Vec<Vec<JointEstimate>>> = Vec::new();
             for appearance in [Appearance::Here, Appearance::SeedFrame] {
+                if let (Appearance::SeedFrame, Some(true)) = (&appearance, led_early) {
+                    break;
+                }
                 let mut p = self.tracker_at(end, bf, appearance)?;
                 for (i, f) in held.iter().enumerate().rev() {
                     p.step(plan.first_frame(k) + 1 + i as u64, f);
@@ -153,14 +163,51 @@ impl Session {
                     );
                 }
                 passes.push(back[..n].iter().map(|(_, e)| e.clone()).collect());
+                if lean && led_early.is_none() {
+                    let images: Vec<&RgbImage> = std::iter::once(first)
+                        .chain(held.iter())
+                        .chain(Some(bf))
+                        .collect();
+                    let boxes: Vec<u32> = start
+                        .seeds
+                        .joints
+                        .iter()
+                        .map(|j| j.bbox.w.min(j.bbox.h))
+                        .collect();
+                    let (leads, pyramids) = led_by_flow(
+                        &images,
+                        &out[0].1,
+                        &end.row,
+                        carried_end.as_deref(),
+                        &out[1..=n],
+                        &passes[0],
+                        &boxes,
+                    );
+                    led_early = Some(leads);
+                    early_pyramids = Some(pyramids);
+                }
             }
-            passes
+            // Between two corrections, the passes that start on them decide: the carried tracker
+            // adds nothing there (on flies, 12 files corrected, it cost 1.5 points), unless the
+            // span is led by flow and the passes built on the keys' appearance were not run.
+            let mut first_passes = Vec::new();
+            if !corrected || led_early == Some(true) {
+                first_passes.push(between(&out, n));
+            }
+            let later = match led_early {
+                Some(true) => Vec::new(),
+                _ => run_over(deferred, first_frame, &held),
+            };
+            first_passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
+            first_passes.extend(passes);
+            first_passes
         } else if corrected {
             // After the last correction: the carried tracker and the one built on the
             // correction.
             let n = out.len() - 1;
             let mut passes = vec![between(&out, n)];
-            passes.extend(forward.iter().map(|p| between(p, n)));
+            let later = run_over(deferred, first_frame, &held);
+            passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
             passes
         } else {
             Vec::new()
@@ -212,10 +259,13 @@ impl Session {
                 })
                 .collect();
             let top = anchors.last().expect("two anchors").0;
-            let pyramids: Vec<GreyPyramid> = images[..=top]
-                .iter()
-                .map(|f| GreyPyramid::new(f, KEYED_LEVELS))
-                .collect();
+            let pyramids: Vec<GreyPyramid> = match early_pyramids.take() {
+                Some(p) => p,
+                None => images[..=top]
+                    .iter()
+                    .map(|f| GreyPyramid::new(f, KEYED_LEVELS))
+                    .collect(),
+            };
             let prm = keyed::KeyedParams::default();
             let boxes: Vec<u32> = start
                 .seeds
@@ -266,7 +316,10 @@ impl Session {
                     .filter(|&&ok| ok)
                     .count();
                 let ok_share = seen as f32 / track_ok[*ia..=*ib].iter().flatten().count() as f32;
-                let keep_blend = keyed::keep_tracker(&misses, keyed::flow_leads(&misses, ok_share));
+                let keep_blend = keyed::keep_tracker(
+                    &misses,
+                    led_early.unwrap_or_else(|| keyed::flow_leads(&misses, ok_share)),
+                );
                 let blend_kept = *ib == top && end.is_some() && back_here.is_some();
                 let len = (ib - ia) as f32;
                 for (t, row) in solved.rows.iter().enumerate().skip(1) {
@@ -334,6 +387,72 @@ impl Session {
 /// Levels of the grey pyramids Lucas–Kanade works on between keys (a 31 px window on the
 /// fifth level covers ±240 px of motion at full resolution).
 const KEYED_LEVELS: usize = 5;
+
+/// Runs `passes` (started on frame `first_frame`) over the `held` frames that follow it.
+fn run_over(
+    mut passes: Vec<Pass>,
+    first_frame: u64,
+    held: &[RgbImage],
+) -> Vec<Vec<(u64, Vec<JointEstimate>)>> {
+    for (i, f) in held.iter().enumerate() {
+        for p in &mut passes {
+            p.step(first_frame + 1 + i as u64, f);
+        }
+    }
+    passes.into_iter().map(Pass::finish).collect()
+}
+
+/// Whether the span from the key on `images[0]` (`start`) to the correction on the last image
+/// (`end`) is led by flow ([`keyed::flow_leads`]), judged before the blend from the carried
+/// pass (`carried` on the frames between, `carried_end` on the last) and the pass backward from
+/// the correction (`back` on the frames between), with the images' pyramids for the solve that
+/// follows. `boxes[j]`: joint `j`'s rectangle's smaller side (px).
+fn led_by_flow(
+    images: &[&RgbImage],
+    start: &[JointEstimate],
+    end: &[JointEstimate],
+    carried_end: Option<&[Point]>,
+    carried: &[(u64, Vec<JointEstimate>)],
+    back: &[Vec<JointEstimate>],
+    boxes: &[u32],
+) -> (bool, Vec<GreyPyramid>) {
+    let pyramids: Vec<GreyPyramid> = images
+        .iter()
+        .map(|f| GreyPyramid::new(f, KEYED_LEVELS))
+        .collect();
+    let (Some(carried_end), Some(back_a)) = (carried_end, back.first()) else {
+        return (false, pyramids);
+    };
+    let start_pos: Vec<Point> = start.iter().map(|e| e.pos).collect();
+    let key_b: Vec<Option<Point>> = end.iter().map(|e| Some(e.pos)).collect();
+    let solved = keyed::solve(
+        &pyramids,
+        &start_pos,
+        Some(&key_b),
+        &[],
+        &[],
+        boxes,
+        &keyed::KeyedParams::default(),
+    );
+    let misses: Vec<Option<(f32, f32)>> = (0..start.len())
+        .map(|j| {
+            let miss_t =
+                (carried_end[j] - end[j].pos).norm() + (back_a[j].pos - start_pos[j]).norm();
+            Some((miss_t, solved.lk_miss[j]))
+        })
+        .collect();
+    let rows = carried.iter().map(|(_, r)| r).chain(back);
+    let (mut ok, mut all) = (0usize, 0usize);
+    for r in rows {
+        ok += r
+            .iter()
+            .filter(|e| matches!(e.status, Status::Ok | Status::Seed))
+            .count();
+        all += r.len();
+    }
+    let ok_share = ok as f32 / all.max(1) as f32;
+    (keyed::flow_leads(&misses, ok_share), pyramids)
+}
 
 /// Puts a key's joints into a row: their positions, status `seed`, score 1.
 pub(super) fn keyed_row(row: &mut [JointEstimate], key: &Key) {
