@@ -126,6 +126,24 @@ fn odd_width_rows_are_copied_by_stride() {
 }
 
 #[test]
+fn rgb_written_directly_is_the_copied_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wide.mp4");
+    // 128 px: 384-byte rows, which swscale writes straight into the image.
+    let frames: Vec<_> = (0..4).map(|t| textured(128, 48, t)).collect();
+    write_video(&path, &frames, "libx264", Pixel::YUV420P, 12);
+    let mut source = FfmpegSource::open(&path, None).unwrap();
+    let mut n = 0;
+    while source.decode_next().unwrap() {
+        let direct = source.to_rgb.convert_via(&source.decoded, true).unwrap();
+        let copied = source.to_rgb.convert_via(&source.decoded, false).unwrap();
+        assert!(direct == copied, "frame {n}");
+        n += 1;
+    }
+    assert_eq!(n, 4);
+}
+
+#[test]
 fn seeking_samples_land_on_keyframes() {
     let dir = tempfile::tempdir().unwrap();
     // All-intra: every seek lands exactly on the frame at or before its target.
