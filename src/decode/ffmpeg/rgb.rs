@@ -79,7 +79,10 @@ impl RgbConverter {
         let len = row * h as usize;
         let mut out: Vec<u8> = Vec::with_capacity(len + SLACK);
         // swscale's SIMD stores want 16-byte aligned rows; the allocator gives that in practice.
-        if direct && row.is_multiple_of(DIRECT_ROW_MULTIPLE) && (out.as_ptr() as usize) % 16 == 0 {
+        if direct
+            && row.is_multiple_of(DIRECT_ROW_MULTIPLE)
+            && (out.as_ptr() as usize).is_multiple_of(16)
+        {
             let dst = [
                 out.as_mut_ptr(),
                 std::ptr::null_mut(),
