@@ -8,7 +8,7 @@ use ff::software::scaling;
 use ff::{Rational, Rescale};
 use ffmpeg_next as ff;
 use image::RgbImage;
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 mod rgb;
@@ -50,6 +50,10 @@ pub struct FfmpegSource {
     eof_sent: bool,
     /// Frames returned so far (for error messages).
     frames_out: u64,
+    /// When set, the decoder skips every non-reference frame except those whose packets carry
+    /// one of these timestamps (pts): the frames nothing else is predicted from cost nothing
+    /// unless they are wanted.
+    decode_only: Option<HashSet<i64>>,
 }
 
 /// A scaler (pixel-format converter) context, made `Send`.
@@ -171,6 +175,7 @@ impl FfmpegSource {
             to_rgb: RgbConverter::new(width, height),
             eof_sent: false,
             frames_out: 0,
+            decode_only: None,
         })
     }
 
@@ -208,6 +213,15 @@ impl FfmpegSource {
         loop {
             match packet.read(&mut self.input) {
                 Ok(()) if packet.stream() == self.stream_index => {
+                    if let Some(wanted) = &self.decode_only {
+                        // Read by the decoder (and copied to its frame threads) per packet.
+                        let wanted = packet.pts().is_some_and(|t| wanted.contains(&t));
+                        self.decoder.skip_frame(if wanted {
+                            ff::Discard::Default
+                        } else {
+                            ff::Discard::NonReference
+                        });
+                    }
                     return self
                         .decoder
                         .send_packet(&packet)
@@ -251,9 +265,10 @@ impl FrameSource for FfmpegSource {
 }
 
 /// Up to `n` frames spread over the video at `path`: the keyframes at or before `n` evenly
-/// spaced timestamps if at least `n / 2` are distinct, else one sequential decode (see
-/// [`super::sample_frames`]). Which way is decided by demuxing alone, so a clip with few
-/// keyframes is decoded once, not once per seek and then again.
+/// spaced timestamps if at least `n / 2` are distinct, else one sequential pass that skips the
+/// non-reference frames it does not take (see [`super::sample_frames`]). Which way is decided
+/// by demuxing alone, so a clip with few keyframes is decoded once, not once per seek and then
+/// again.
 /// With `also`, that frame too when the sequential decode reaches it (see
 /// [`super::sample_frames_and`]).
 pub(super) fn sample(
