@@ -105,8 +105,8 @@ impl FfmpegSource {
     /// converted to RGB as it comes; the others are not.
     ///
     /// Frame `also`, when given and reached, is decoded and converted too and returned beside
-    /// them. A file whose packets lack timestamps or repeat one is decoded whole instead
-    /// ([`FfmpegSource::sample_every_frame`]).
+    /// them. A file whose packets lack timestamps or repeat one, or that gives fewer than half
+    /// the wanted frames, is decoded whole instead ([`FfmpegSource::sample_every_frame`]).
     pub(super) fn sample_sequentially(
         &mut self,
         n: usize,
@@ -150,7 +150,13 @@ impl FfmpegSource {
             }
         }
         self.decode_only = None;
-        Ok((frames.into_iter().flatten().collect(), extra))
+        let frames: Vec<RgbImage> = frames.into_iter().flatten().collect();
+        if frames.len() * 2 < chosen.len() {
+            // Most wanted frames never came out (frames stamped otherwise than their packets, or
+            // damage early on): decode every frame from the start instead.
+            return FfmpegSource::open(&self.info.path, None)?.sample_every_frame(n, also);
+        }
+        Ok((frames, extra))
     }
 
     /// [`FfmpegSource::sample_sequentially`] by decoding every frame, counted in the order they
