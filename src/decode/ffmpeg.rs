@@ -8,10 +8,13 @@ use ff::software::scaling;
 use ff::{Rational, Rescale};
 use ffmpeg_next as ff;
 use image::RgbImage;
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
+mod rgb;
 mod sampling;
+
+use rgb::RgbConverter;
 
 /// FFmpeg's timestamps without a value (`AV_NOPTS_VALUE`).
 const NO_PTS: i64 = i64::MIN;
@@ -47,15 +50,10 @@ pub struct FfmpegSource {
     eof_sent: bool,
     /// Frames returned so far (for error messages).
     frames_out: u64,
-}
-
-/// Converts decoded frames to RGB images of the clip's size.
-struct RgbConverter {
-    width: u32,
-    height: u32,
-    scaler: Option<Scaler>,
-    /// The (padded) RGB frame the scaler writes, reused.
-    rgb: ff::frame::Video,
+    /// When set, the decoder skips every non-reference frame except those whose packets carry
+    /// one of these timestamps (pts): the frames nothing else is predicted from cost nothing
+    /// unless they are wanted.
+    decode_only: Option<HashSet<i64>>,
 }
 
 /// A scaler (pixel-format converter) context, made `Send`.
@@ -174,14 +172,10 @@ impl FfmpegSource {
             stream_index,
             decoder,
             decoded: ff::frame::Video::empty(),
-            to_rgb: RgbConverter {
-                width,
-                height,
-                scaler: None,
-                rgb: ff::frame::Video::new(Pixel::RGB24, width, height),
-            },
+            to_rgb: RgbConverter::new(width, height),
             eof_sent: false,
             frames_out: 0,
+            decode_only: None,
         })
     }
 
@@ -219,6 +213,15 @@ impl FfmpegSource {
         loop {
             match packet.read(&mut self.input) {
                 Ok(()) if packet.stream() == self.stream_index => {
+                    if let Some(wanted) = &self.decode_only {
+                        // Read by the decoder (and copied to its frame threads) per packet.
+                        let wanted = packet.pts().is_some_and(|t| wanted.contains(&t));
+                        self.decoder.skip_frame(if wanted {
+                            ff::Discard::Default
+                        } else {
+                            ff::Discard::NonReference
+                        });
+                    }
                     return self
                         .decoder
                         .send_packet(&packet)
@@ -246,55 +249,6 @@ impl FfmpegSource {
     }
 }
 
-impl RgbConverter {
-    /// `frame` as an RGB image of the clip's size; the error says what could not be converted.
-    fn convert(&mut self, frame: &ff::frame::Video) -> std::result::Result<RgbImage, String> {
-        let (w, h) = (self.width, self.height);
-        let src = (frame.format(), frame.width(), frame.height());
-        let stale = self.scaler.as_ref().is_none_or(|s| {
-            let i = s.0.input();
-            (i.format, i.width, i.height) != src
-        });
-        if stale {
-            // A stream can change size mid-clip; every frame still comes out at the first size.
-            let ctx = scaling::Context::get(
-                src.0,
-                src.1,
-                src.2,
-                Pixel::RGB24,
-                w,
-                h,
-                // Without ACCURATE_RND, same-size yuv420p → RGB takes swscale's SIMD fast path:
-                // about 1.4 ms less a 720p frame (2.5 vs 3.8 s of CPU for 900 frames).
-                scaling::Flags::BILINEAR,
-            )
-            .map_err(|e| {
-                format!(
-                    "cannot convert {:?} {}x{} to RGB ({e})",
-                    src.0, src.1, src.2
-                )
-            })?;
-            self.scaler = Some(Scaler(ctx));
-        }
-        // Cannot fail: a scaler was made just above when none matched.
-        let scaler = self.scaler.as_mut().expect("scaler set above");
-        scaler
-            .0
-            .run(frame, &mut self.rgb)
-            .map_err(|e| format!("cannot convert the frame to RGB ({e})"))?;
-        // Rows are padded to the stride (e.g. at odd widths): copy only the pixels.
-        let stride = self.rgb.stride(0);
-        let data = self.rgb.data(0);
-        let row = w as usize * 3;
-        let mut out = Vec::with_capacity(row * h as usize);
-        for y in 0..h as usize {
-            out.extend_from_slice(&data[y * stride..y * stride + row]);
-        }
-        // Cannot fail: `out` holds exactly h rows of w*3 bytes.
-        Ok(RgbImage::from_raw(w, h, out).expect("buffer is width*height*3"))
-    }
-}
-
 impl FrameSource for FfmpegSource {
     fn info(&self) -> &ClipInfo {
         &self.info
@@ -311,9 +265,10 @@ impl FrameSource for FfmpegSource {
 }
 
 /// Up to `n` frames spread over the video at `path`: the keyframes at or before `n` evenly
-/// spaced timestamps if at least `n / 2` are distinct, else one sequential decode (see
-/// [`super::sample_frames`]). Which way is decided by demuxing alone, so a clip with few
-/// keyframes is decoded once, not once per seek and then again.
+/// spaced timestamps if at least `n / 2` are distinct, else one sequential pass that skips the
+/// non-reference frames it does not take (see [`super::sample_frames`]). Which way is decided
+/// by demuxing alone, so a clip with few keyframes is decoded once, not once per seek and then
+/// again.
 /// With `also`, that frame too when the sequential decode reaches it (see
 /// [`super::sample_frames_and`]).
 pub(super) fn sample(

@@ -209,11 +209,13 @@ fn no_ffmpeg(path: &Path) -> Error {
 /// Much cheaper than a full decode on long videos: FFmpeg seeks to `n` evenly spaced timestamps
 /// and reads (demuxing only, no decoding) which keyframe each lands on; if at least `n / 2` are
 /// distinct, it decodes just those keyframes. Otherwise (short clip, few keyframes: x264 puts one
-/// every 250 frames) a spread sample needs nearly every frame decoded anyway, since each depends
-/// on those before it back to its keyframe, so it makes one sequential decode that keeps an
-/// evenly thinned subset (never more than `2n` decoded frames in memory, only the `n` chosen
-/// converted to RGB). Either way the same clip gives the same frames. Image folders read the `n`
-/// chosen files directly. Frames come back in clip order.
+/// every 250 frames) a spread sample needs the frames before each chosen one decoded back to its
+/// keyframe, so it makes one sequential pass: the frames' timestamps, read by demuxing, say
+/// which `n` to take (an evenly thinned subset of every frame), and the decoder skips every
+/// non-reference frame (one no other frame is predicted from) that is not among them, and stops
+/// after the last; only the `n` chosen are converted to RGB. Either way the same clip gives the
+/// same frames, at any thread count. Image folders read the `n` chosen files directly. Frames
+/// come back in clip order.
 pub fn sample_frames(path: &Path, n: usize) -> Result<Vec<RgbImage>> {
     Ok(sample_frames_and(path, n, None)?.0)
 }

@@ -4,6 +4,18 @@ use crate::decode::{open, sample_frames, sample_frames_and};
 /// Writes `frames` with any FFmpeg encoder and pixel format (unlike `VideoWriter`), at 25 fps
 /// with a keyframe every `gop` frames. The container comes from `path`'s extension.
 fn write_video(path: &Path, frames: &[RgbImage], codec: &str, pixel: Pixel, gop: u32) {
+    write_video_b(path, frames, codec, pixel, gop, 0);
+}
+
+/// [`write_video`] with up to `b_frames` B-frames in a row.
+fn write_video_b(
+    path: &Path,
+    frames: &[RgbImage],
+    codec: &str,
+    pixel: Pixel,
+    gop: u32,
+    b_frames: usize,
+) {
     init();
     let (w, h) = frames[0].dimensions();
     let mut output = ff::format::output(path).unwrap();
@@ -18,7 +30,7 @@ fn write_video(path: &Path, frames: &[RgbImage], codec: &str, pixel: Pixel, gop:
     encoder.set_time_base(Rational(1, 25));
     encoder.set_frame_rate(Some(Rational(25, 1)));
     encoder.set_gop(gop);
-    encoder.set_max_b_frames(0);
+    encoder.set_max_b_frames(b_frames);
     if output
         .format()
         .flags()
@@ -126,6 +138,24 @@ fn odd_width_rows_are_copied_by_stride() {
 }
 
 #[test]
+fn rgb_written_directly_is_the_copied_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wide.mp4");
+    // 128 px: 384-byte rows, which swscale writes straight into the image.
+    let frames: Vec<_> = (0..4).map(|t| textured(128, 48, t)).collect();
+    write_video(&path, &frames, "libx264", Pixel::YUV420P, 12);
+    let mut source = FfmpegSource::open(&path, None).unwrap();
+    let mut n = 0;
+    while source.decode_next().unwrap() {
+        let direct = source.to_rgb.convert_via(&source.decoded, true).unwrap();
+        let copied = source.to_rgb.convert_via(&source.decoded, false).unwrap();
+        assert!(direct == copied, "frame {n}");
+        n += 1;
+    }
+    assert_eq!(n, 4);
+}
+
+#[test]
 fn seeking_samples_land_on_keyframes() {
     let dir = tempfile::tempdir().unwrap();
     // All-intra: every seek lands exactly on the frame at or before its target.
@@ -187,6 +217,39 @@ fn few_keyframes_fall_back_to_a_thinned_sequential_decode() {
     let gop5 = dir.path().join("gop5.mp4");
     write_video(&gop5, &numbered(60), "mpeg4", Pixel::YUV420P, 5);
     assert!(sample_frames_and(&gop5, 8, Some(0)).unwrap().1.is_none());
+}
+
+#[test]
+fn a_sequential_sample_skips_the_unwanted_non_reference_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bframes.mp4");
+    // One keyframe, two B-frames (never referenced in MPEG-4 Part 2) between P-frames.
+    write_video_b(&path, &numbered(60), "mpeg4", Pixel::YUV420P, 300, 2);
+    let all = crate::decode::read_all(&path, None).unwrap();
+    assert_eq!(all.len(), 60);
+    let want = sampling::thinned_indices(60, 10);
+    assert_eq!(want, [0, 8, 12, 20, 24, 32, 36, 44, 48, 56]);
+    let sampled = |threads: usize, also: Option<u64>| {
+        let mut source = FfmpegSource::open_with_threads(&path, None, |_, _| threads).unwrap();
+        let got = source.sample_sequentially(10, also).unwrap();
+        (got, source.frames_out)
+    };
+    for threads in [1, 4] {
+        let ((sample, extra), decoded) = sampled(threads, Some(7));
+        // The frames a full decode gives there, bit for bit (B-frames 8, 20, … among them).
+        assert_eq!(sample.len(), 10);
+        for (f, &i) in sample.iter().zip(&want) {
+            assert!(*f == all[i as usize], "frame {i}, {threads} threads");
+        }
+        assert!(extra.as_ref() == Some(&all[7]), "{threads} threads");
+        // Frames 0, 3, …, 54 (the reference frames) and the wanted B-frames 7, 8, 20, 32, 44,
+        // 56: up to frame 56, then no more.
+        assert_eq!(decoded, 19 + 6, "frames decoded, {threads} threads");
+    }
+    // The same sample as a decode of every frame gives.
+    let mut source = FfmpegSource::open(&path, None).unwrap();
+    assert!(source.sample_every_frame(10, None).unwrap().0 == sampled(1, None).0 .0);
+    assert_eq!(source.frames_out, 60);
 }
 
 #[test]
