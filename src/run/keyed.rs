@@ -168,25 +168,73 @@ pub fn solve(
     boxes: &[u32],
     prm: &KeyedParams,
 ) -> Between {
-    let n = frames.len();
+    solve_with(
+        &ways(frames, start, end, boxes, prm),
+        start,
+        end,
+        guide,
+        guide_ok,
+        prm,
+    )
+}
+
+/// Lucas–Kanade's ways between two keys, per joint: forward from `start` and, where `end` has
+/// a key, backward from it, each as positions on every frame and the variance accumulated
+/// since its key (arguments as for [`solve`]).
+pub struct Ways {
+    per_joint: Vec<Way>,
+}
+
+/// One joint's ways: forward `(positions, variances)` and backward, in frame order.
+type Way = ((Vec<Point>, Vec<f64>), Option<(Vec<Point>, Vec<f64>)>);
+
+/// Follows every joint both ways between two keys (see [`Ways`]).
+pub fn ways(
+    frames: &[GreyPyramid],
+    start: &[Point],
+    end: Option<&[Option<Point>]>,
+    boxes: &[u32],
+    prm: &KeyedParams,
+) -> Ways {
     let fwd: Vec<&GreyPyramid> = frames.iter().collect();
     let bwd: Vec<&GreyPyramid> = frames.iter().rev().collect();
-    let gvar = (prm.guide_sigma_px as f64).powi(2);
-    let per_joint: Vec<(Vec<Solved>, f32, f32)> = (0..start.len())
+    let per_joint = (0..start.len())
         .into_par_iter()
         .map(|j| {
             let flow = FlowParams {
                 half: window_half(boxes[j], prm.flow.half),
                 ..prm.flow
             };
-            let (pf, vf) = pass(&fwd, start[j], &flow, prm.max_fb_px, prm.floor_px);
-            let key_b = end.and_then(|e| e[j]);
-            let back = key_b.map(|kb| {
+            let f = pass(&fwd, start[j], &flow, prm.max_fb_px, prm.floor_px);
+            let b = end.and_then(|e| e[j]).map(|kb| {
                 let (mut pb, mut vb) = pass(&bwd, kb, &flow, prm.max_fb_px, prm.floor_px);
                 pb.reverse();
                 vb.reverse();
                 (pb, vb)
             });
+            (f, b)
+        })
+        .collect();
+    Ways { per_joint }
+}
+
+/// [`solve`] with Lucas–Kanade's ways already followed (by [`ways`], over the same frames and
+/// keys).
+pub fn solve_with(
+    ways: &Ways,
+    start: &[Point],
+    end: Option<&[Option<Point>]>,
+    guide: &[Vec<Point>],
+    guide_ok: &[Vec<bool>],
+    prm: &KeyedParams,
+) -> Between {
+    let n = ways.per_joint.first().map_or(0, |w| w.0 .0.len());
+    let gvar = (prm.guide_sigma_px as f64).powi(2);
+    let per_joint: Vec<(Vec<Solved>, f32, f32)> = (0..start.len())
+        .into_par_iter()
+        .map(|j| {
+            let ((pf, vf), back) = &ways.per_joint[j];
+            let key_b = end.and_then(|e| e[j]);
             // The guide's steps weigh by what the tracker said of them: `ok` on both frames, its
             // own noise; else a step it may have guessed.
             let mut vg: Vec<f64> = vec![0.0; n];
@@ -212,7 +260,7 @@ pub fn solve(
                     vg[t] = vg[t].min(total - vg[t]);
                 }
             }
-            let miss = match (key_b, &back) {
+            let miss = match (key_b, back) {
                 (Some(kb), Some((pb, _))) => (pf[n - 1] - kb).norm() + (pb[0] - start[j]).norm(),
                 _ => f32::INFINITY,
             };
@@ -230,7 +278,7 @@ pub fn solve(
                     if !guide.is_empty() {
                         sides.push((pg[t], vg[t], 1.0));
                     }
-                    if let Some((pb, vb)) = &back {
+                    if let Some((pb, vb)) = back {
                         sides.push((pb[t], vb[t], lam));
                     }
                     fuse(&sides, back.is_some(), lam)

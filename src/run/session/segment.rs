@@ -141,6 +141,7 @@ impl Session {
         // Set when the span was found led by flow before the blend (see `lean`).
         let mut led_early: Option<bool> = None;
         let mut early_pyramids: Option<Vec<GreyPyramid>> = None;
+        let mut early_ways: Option<keyed::Ways> = None;
         let passes = if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
             let n = held.len();
             let mut passes: Vec<Vec<Vec<JointEstimate>>> = Vec::new();
@@ -174,7 +175,7 @@ impl Session {
                         .iter()
                         .map(|j| j.bbox.w.min(j.bbox.h))
                         .collect();
-                    let (leads, pyramids) = led_by_flow(
+                    let (leads, pyramids, ways) = led_by_flow(
                         &images,
                         &out[0].1,
                         &end.row,
@@ -185,6 +186,7 @@ impl Session {
                     );
                     led_early = Some(leads);
                     early_pyramids = Some(pyramids);
+                    early_ways = ways;
                 }
             }
             // Between two corrections, the passes that start on them decide: the carried tracker
@@ -281,13 +283,18 @@ impl Session {
                     .zip(&track_pos[*ia])
                     .map(|(k, p)| k.unwrap_or(*p))
                     .collect();
-                let solved = keyed::solve(
-                    &pyramids[*ia..=*ib],
+                // Lucas–Kanade's ways, unless followed already to judge the span (`lean`: one
+                // span over the whole segment, the same frames and keys).
+                let ways = match early_ways.take() {
+                    Some(w) if anchors.len() == 2 => w,
+                    _ => keyed::ways(&pyramids[*ia..=*ib], &start_pos, Some(kb), &boxes, &prm),
+                };
+                let solved = keyed::solve_with(
+                    &ways,
                     &start_pos,
                     Some(kb),
                     &track_pos[*ia..=*ib],
                     &track_ok[*ia..=*ib],
-                    &boxes,
                     &prm,
                 );
                 // Per joint, how far the tracker's ways and Lucas–Kanade's missed the keys (px):
@@ -405,8 +412,8 @@ fn run_over(
 /// Whether the span from the key on `images[0]` (`start`) to the correction on the last image
 /// (`end`) is led by flow ([`keyed::flow_leads`]), judged before the blend from the carried
 /// pass (`carried` on the frames between, `carried_end` on the last) and the pass backward from
-/// the correction (`back` on the frames between), with the images' pyramids for the solve that
-/// follows. `boxes[j]`: joint `j`'s rectangle's smaller side (px).
+/// the correction (`back` on the frames between), with the images' pyramids and Lucas–Kanade's
+/// ways for the solve that follows. `boxes[j]`: joint `j`'s rectangle's smaller side (px).
 fn led_by_flow(
     images: &[&RgbImage],
     start: &[JointEstimate],
@@ -415,25 +422,19 @@ fn led_by_flow(
     carried: &[(u64, Vec<JointEstimate>)],
     back: &[Vec<JointEstimate>],
     boxes: &[u32],
-) -> (bool, Vec<GreyPyramid>) {
+) -> (bool, Vec<GreyPyramid>, Option<keyed::Ways>) {
     let pyramids: Vec<GreyPyramid> = images
         .iter()
         .map(|f| GreyPyramid::new(f, KEYED_LEVELS))
         .collect();
     let (Some(carried_end), Some(back_a)) = (carried_end, back.first()) else {
-        return (false, pyramids);
+        return (false, pyramids, None);
     };
     let start_pos: Vec<Point> = start.iter().map(|e| e.pos).collect();
     let key_b: Vec<Option<Point>> = end.iter().map(|e| Some(e.pos)).collect();
-    let solved = keyed::solve(
-        &pyramids,
-        &start_pos,
-        Some(&key_b),
-        &[],
-        &[],
-        boxes,
-        &keyed::KeyedParams::default(),
-    );
+    let prm = keyed::KeyedParams::default();
+    let ways = keyed::ways(&pyramids, &start_pos, Some(&key_b), boxes, &prm);
+    let solved = keyed::solve_with(&ways, &start_pos, Some(&key_b), &[], &[], &prm);
     let misses: Vec<Option<(f32, f32)>> = (0..start.len())
         .map(|j| {
             let miss_t =
@@ -451,7 +452,7 @@ fn led_by_flow(
         all += r.len();
     }
     let ok_share = ok as f32 / all.max(1) as f32;
-    (keyed::flow_leads(&misses, ok_share), pyramids)
+    (keyed::flow_leads(&misses, ok_share), pyramids, Some(ways))
 }
 
 /// Puts a key's joints into a row: their positions, status `seed`, score 1.
