@@ -198,7 +198,12 @@ impl Session {
             }
             let later = match led_early {
                 Some(true) => Vec::new(),
-                _ => run_over(deferred, first_frame, &held),
+                _ => run_over(
+                    deferred,
+                    first_frame,
+                    &held,
+                    Some((first_frame + 1 + n as u64, bf)),
+                ),
             };
             first_passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
             first_passes.extend(passes);
@@ -208,7 +213,7 @@ impl Session {
             // correction.
             let n = out.len() - 1;
             let mut passes = vec![between(&out, n)];
-            let later = run_over(deferred, first_frame, &held);
+            let later = run_over(deferred, first_frame, &held, None);
             passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
             passes
         } else {
@@ -395,15 +400,22 @@ impl Session {
 /// fifth level covers ±240 px of motion at full resolution).
 const KEYED_LEVELS: usize = 5;
 
-/// Runs `passes` (started on frame `first_frame`) over the `held` frames that follow it.
+/// Runs `passes` (started on frame `first_frame`) over the `held` frames that follow it and
+/// the frame `last` after them, if any (the next key's: a pass hands rows out after it has seen
+/// the frames that follow them, so its rows on the held frames depend on it).
 fn run_over(
     mut passes: Vec<Pass>,
     first_frame: u64,
     held: &[RgbImage],
+    last: Option<(u64, &RgbImage)>,
 ) -> Vec<Vec<(u64, Vec<JointEstimate>)>> {
-    for (i, f) in held.iter().enumerate() {
+    let frames = held
+        .iter()
+        .enumerate()
+        .map(|(i, f)| (first_frame + 1 + i as u64, f));
+    for (idx, f) in frames.chain(last) {
         for p in &mut passes {
-            p.step(first_frame + 1 + i as u64, f);
+            p.step(idx, f);
         }
     }
     passes.into_iter().map(Pass::finish).collect()
