@@ -35,6 +35,18 @@ function joint(text, name) {
 }
 
 /** Drags on `page` from (x, y) by (dx, dy) screen px, in two halves of 4 steps. */
+// A drawn element's box; the page redraws after saves and resumes, so an element may be
+// replaced between finding it and measuring it: try again for a few seconds.
+async function settledBox(locator) {
+  for (let i = 0; i < 50; i++) {
+    await locator.waitFor({ state: "visible" });
+    const b = await locator.boundingBox();
+    if (b) return b;
+    await new Promise((r) => setTimeout(r, 100));
+  }
+  throw new Error("element never settled on the page");
+}
+
 async function drag(page, x, y, dx, dy) {
   await page.mouse.move(x, y);
   await page.mouse.down();
@@ -144,8 +156,9 @@ try {
   const resumeMsg = await page.textContent("#message");
   check(resumeMsg.includes("resumed from segment 000"), `resume answers: ${resumeMsg}`);
 
-  // Select the head so the screenshot shows a selection, then capture the page.
-  const hb = await head.boundingBox();
+  // Select the head so the screenshot shows a selection, then capture the page. The page
+  // redraws the segment after a resume: wait for the head to be drawn again.
+  const hb = await settledBox(head);
   await page.mouse.click(hb.x + hb.width / 2, hb.y + hb.height / 2);
   fs.mkdirSync(path.dirname(shot), { recursive: true });
   await page.screenshot({ path: shot, fullPage: true });
@@ -165,7 +178,7 @@ try {
     const svg = document.querySelector("#kstage");
     return svg.getBoundingClientRect().width / svg.viewBox.baseVal.width;
   });
-  const kb = await knee.boundingBox();
+  const kb = await settledBox(knee);
   const [kx, ky] = [kb.x + kb.width / 2, kb.y + kb.height / 2];
   await drag(page, kx, ky, 30, 10);
   await page.click("#savekey");
@@ -182,6 +195,9 @@ try {
     check(Math.abs(dx - 30 / kscale) <= tol && Math.abs(dy - 10 / kscale) <= tol,
       `knee keyed at (${dx.toFixed(3)}, ${dy.toFixed(3)}) px from its track; dragged (${(30 / kscale).toFixed(3)}, ${(10 / kscale).toFixed(3)})`);
   }
+  // The page redraws the frame's keys and names the resume after the save answers.
+  await page.waitForFunction(() => document.querySelector("#keynext").textContent.includes("--segment"),
+    null, { timeout: 10000 }).catch(() => {});
   const ringed = await page.locator('#kstage circle.kring.keyed[data-name="knee_l"]').count();
   check(ringed === 1, "the keyed knee is drawn ringed");
   const next = await page.textContent("#keynext");
@@ -219,7 +235,8 @@ try {
     const svg = document.querySelector("#stage");
     return svg.getBoundingClientRect().width / svg.viewBox.baseVal.width;
   });
-  const sb = await sp.locator('g.joint[data-name="head"] rect.body').boundingBox();
+  const shead = sp.locator('g.joint[data-name="head"] rect.body');
+  const sb = await settledBox(shead);
   const [sx, sy] = [Math.round(sb.x + sb.width / 2), Math.round(sb.y + sb.height / 2)];
   await drag(sp, sx, sy, 30, 12);
   const placedText = await sp.textContent("#placed");
