@@ -299,10 +299,12 @@ $("#revert").onclick = () => { setDirty(false); openSegment(seg.id); };
 $("#resume").onclick = resume;
 window.addEventListener("beforeunload", (ev) => { if (dirty) ev.preventDefault(); });
 
-loadRun().then(() => {
+// The page starts once every script has run (keys.js and seeds.js load after this one, and the
+// run's description can arrive before they do).
+window.addEventListener("DOMContentLoaded", () => loadRun().then(() => {
   if (run.mode === "seed") { startSeeds(); return; }
   const want = location.hash.slice(1);
   if (/^f[0-9]+$/.test(want)) { openFrame(Number(want.slice(1))); return; }
   const first = run.segments.find((s) => s.id === want) || run.segments.find((s) => s.flagged) || run.segments[0];
   if (first) openSegment(first.id);
-});
+}));
