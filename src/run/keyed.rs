@@ -188,6 +188,25 @@ pub struct Ways {
 /// One joint's ways: forward `(positions, variances)` and backward, in frame order.
 type Way = ((Vec<Point>, Vec<f64>), Option<(Vec<Point>, Vec<f64>)>);
 
+impl Ways {
+    /// Per joint, how far the two ways land from the keys they run toward (px, forward's miss
+    /// plus backward's; infinite without a key at both ends).
+    pub fn misses(&self, start: &[Point], end: Option<&[Option<Point>]>) -> Vec<f32> {
+        self.per_joint
+            .iter()
+            .enumerate()
+            .map(
+                |(j, ((pf, _), back))| match (end.and_then(|e| e[j]), back) {
+                    (Some(kb), Some((pb, _))) => {
+                        (pf[pf.len() - 1] - kb).norm() + (pb[0] - start[j]).norm()
+                    }
+                    _ => f32::INFINITY,
+                },
+            )
+            .collect()
+    }
+}
+
 /// Follows every joint both ways between two keys (see [`Ways`]).
 pub fn ways(
     frames: &[GreyPyramid],
@@ -230,7 +249,7 @@ pub fn solve_with(
 ) -> Between {
     let n = ways.per_joint.first().map_or(0, |w| w.0 .0.len());
     let gvar = (prm.guide_sigma_px as f64).powi(2);
-    let per_joint: Vec<(Vec<Solved>, f32, f32)> = (0..start.len())
+    let per_joint: Vec<(Vec<Solved>, f32)> = (0..start.len())
         .into_par_iter()
         .map(|j| {
             let ((pf, vf), back) = &ways.per_joint[j];
@@ -260,10 +279,6 @@ pub fn solve_with(
                     vg[t] = vg[t].min(total - vg[t]);
                 }
             }
-            let miss = match (key_b, back) {
-                (Some(kb), Some((pb, _))) => (pf[n - 1] - kb).norm() + (pb[0] - start[j]).norm(),
-                _ => f32::INFINITY,
-            };
             let fwd_miss = key_b.map_or(f32::INFINITY, |kb| (pf[n - 1] - kb).norm());
             let rows: Vec<Solved> = (0..n)
                 .map(|t| {
@@ -284,15 +299,15 @@ pub fn solve_with(
                     fuse(&sides, back.is_some(), lam)
                 })
                 .collect();
-            (rows, miss, fwd_miss)
+            (rows, fwd_miss)
         })
         .collect();
     Between {
         rows: (0..n)
             .map(|t| per_joint.iter().map(|p| p.0[t]).collect())
             .collect(),
-        lk_miss: per_joint.iter().map(|p| p.1).collect(),
-        lk_fwd_miss: per_joint.iter().map(|p| p.2).collect(),
+        lk_miss: ways.misses(start, end),
+        lk_fwd_miss: per_joint.iter().map(|p| p.1).collect(),
     }
 }
 

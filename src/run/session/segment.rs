@@ -35,6 +35,13 @@ impl Session {
         if let (true, Some(r)) = (start.corrected, &self.last_angles) {
             start.align_turns(r);
         }
+        // Each joint's rectangle's smaller side (px): Lucas–Kanade's window between keys.
+        let boxes: Vec<u32> = start
+            .seeds
+            .joints
+            .iter()
+            .map(|j| j.bbox.w.min(j.bbox.h))
+            .collect();
         let mut end = self.correction(k + 1)?;
         let keyframe = k == 0 || start.corrected;
         let corrected = k > 0 && start.corrected;
@@ -169,12 +176,6 @@ impl Session {
                         .chain(held.iter())
                         .chain(Some(bf))
                         .collect();
-                    let boxes: Vec<u32> = start
-                        .seeds
-                        .joints
-                        .iter()
-                        .map(|j| j.bbox.w.min(j.bbox.h))
-                        .collect();
                     let (leads, pyramids, ways) = led_by_flow(
                         &images,
                         &out[0].1,
@@ -274,12 +275,6 @@ impl Session {
                     .collect(),
             };
             let prm = keyed::KeyedParams::default();
-            let boxes: Vec<u32> = start
-                .seeds
-                .joints
-                .iter()
-                .map(|j| j.bbox.w.min(j.bbox.h))
-                .collect();
             let mut doubt: Vec<Vec<f32>> = vec![vec![0.0; self.names.len()]; top + 1];
             for pair in anchors.windows(2) {
                 let ((ia, ka), (ib, kb)) = (&pair[0], &pair[1]);
@@ -446,12 +441,12 @@ fn led_by_flow(
     let key_b: Vec<Option<Point>> = end.iter().map(|e| Some(e.pos)).collect();
     let prm = keyed::KeyedParams::default();
     let ways = keyed::ways(&pyramids, &start_pos, Some(&key_b), boxes, &prm);
-    let solved = keyed::solve_with(&ways, &start_pos, Some(&key_b), &[], &[], &prm);
+    let lk_miss = ways.misses(&start_pos, Some(&key_b));
     let misses: Vec<Option<(f32, f32)>> = (0..start.len())
         .map(|j| {
             let miss_t =
                 (carried_end[j] - end[j].pos).norm() + (back_a[j].pos - start_pos[j]).norm();
-            Some((miss_t, solved.lk_miss[j]))
+            Some((miss_t, lk_miss[j]))
         })
         .collect();
     let rows = carried.iter().map(|(_, r)| r).chain(back);
