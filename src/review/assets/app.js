@@ -214,9 +214,8 @@ function renderTable() {
   }
 }
 
-// The pointer's position in frame px.
-function framePoint(ev) {
-  const svg = $("#stage");
+// The pointer's position in frame px on the picture `svg` (the segment editor's by default).
+function framePoint(ev, svg = $("#stage")) {
   const p = svg.createSVGPoint();
   p.x = ev.clientX; p.y = ev.clientY;
   return p.matrixTransform(svg.getScreenCTM().inverse());

@@ -111,17 +111,10 @@ function kupdate() {
   setKeyButtons();
 }
 
-function kpoint(ev) {
-  const svg = $("#kstage");
-  const p = svg.createSVGPoint();
-  p.x = ev.clientX; p.y = ev.clientY;
-  return p.matrixTransform(svg.getScreenCTM().inverse());
-}
-
 // Pressing takes the joint nearest the pointer, within 10 screen px (overlapping points: the
 // one whose centre is pressed).
 function kdown(ev) {
-  const p = kpoint(ev);
+  const p = framePoint(ev, $("#kstage"));
   const reach = 10 / kscale();
   let j = null, best = reach * reach;
   for (const k of kjoints) {
@@ -137,7 +130,7 @@ function kdown(ev) {
 function kmove(ev) {
   if (!kdrag) return;
   const j = kjoints.find((k) => k.name === kdrag.name);
-  const p = kpoint(ev);
+  const p = framePoint(ev, $("#kstage"));
   const clamp = (v, hi) => Math.min(hi - 0.5, Math.max(-0.5, v));
   j.x = clamp(kdrag.orig.x + (p.x - kdrag.start.x), run.width);
   j.y = clamp(kdrag.orig.y + (p.y - kdrag.start.y), run.height);
