@@ -92,20 +92,13 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
 /// the error `retarget` would give (exit 2, naming the file, line and joint).
 pub fn check_character(target: &Path, run: Option<&Path>) -> Result<Vec<String>> {
     let character = read_character(target)?;
-    let rig = Rig::build(
-        &character.image,
-        &character.rest,
-        &character.skeleton,
-        &character.layers,
-        character.mesh_vertices,
-        1.0,
-        DeformOptions::default(),
-    )
-    .map_err(|m| Error::Character {
-        path: character.path.clone(),
-        line: None,
-        joint: None,
-        msg: format!("image {}: {m}", character.image_path.display()),
+    let rig = Rig::for_character(&character, 1.0, DeformOptions::default()).map_err(|m| {
+        Error::Character {
+            path: character.path.clone(),
+            line: None,
+            joint: None,
+            msg: format!("image {}: {m}", character.image_path.display()),
+        }
     })?;
     let (w, h) = character.image.dimensions();
     let sk = &character.skeleton;

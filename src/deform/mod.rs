@@ -60,6 +60,23 @@ pub struct Rig {
 }
 
 impl Rig {
+    /// [`Rig::build`] for a character file's picture, rest pose, skeleton, layers and mesh size.
+    pub fn for_character(
+        character: &crate::character::Character,
+        scale: f32,
+        options: DeformOptions,
+    ) -> Result<Rig, String> {
+        Rig::build(
+            &character.image,
+            &character.rest,
+            &character.skeleton,
+            &character.layers,
+            character.mesh_vertices,
+            scale,
+            options,
+        )
+    }
+
     /// Builds the rig of `image` with rest joints `rest` (image px), skeleton `skeleton`, bone
     /// layers `layers` (per joint: the bone ending there), about `mesh_vertices` vertices, drawn
     /// at `scale` output px per image px. Errors (as a message) when the image cannot be meshed

@@ -29,16 +29,8 @@ pub fn skin_mesh(character: &Character, placement: Placement, first: &[P64]) -> 
         area_preservation: true,
         stage_two: false,
     };
-    let rig = Rig::build(
-        &character.image,
-        &character.rest,
-        &character.skeleton,
-        &character.layers,
-        character.mesh_vertices,
-        placement.scale as f32,
-        options,
-    )
-    .map_err(|m| err(format!("image {}: {m}", character.image_path.display())))?;
+    let rig = Rig::for_character(character, placement.scale as f32, options)
+        .map_err(|m| err(format!("image {}: {m}", character.image_path.display())))?;
     let mesh = &rig.mesh;
     let rest: Vec<P64> = character.rest.iter().map(|&p| placement.apply(p)).collect();
 

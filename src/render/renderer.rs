@@ -52,16 +52,8 @@ impl Renderer {
                 image::DynamicImage::ImageRgb8(img).to_rgba8()
             }
         };
-        let rig = Rig::build(
-            &character.image,
-            &character.rest,
-            &character.skeleton,
-            &character.layers,
-            character.mesh_vertices,
-            scale as f32,
-            deform,
-        )
-        .map_err(|m| err(format!("image {}: {m}", character.image_path.display())))?;
+        let rig = Rig::for_character(character, scale as f32, deform)
+            .map_err(|m| err(format!("image {}: {m}", character.image_path.display())))?;
         Ok(Renderer {
             rig,
             texture: Texture::new(&character.image),
