@@ -6,8 +6,11 @@
 //! The body is searched rigidly, in the pose it had when it was lost and in its seed pose, each
 //! as it is and mirrored left to right (a character that turned round), at the coarsest pyramid
 //! level; each placement is then tracked into place like a frame (bone search and refinement
-//! with wide windows), and the best is taken only if, judged on the judging level, the root's
-//! strips fit at least `redetect_share`. The motion models of the body are then restarted at rest there.
+//! with wide windows). Judged on the judging level, the placement whose whole body fits best is
+//! taken, if the root's strips fit at least `redetect_share` there and the body fits better than
+//! where the tracker has it: judged by the root alone, a root hidden behind the hands on the seed
+//! frame took a left–right mirrored body over one that was tracking well. The motion models of
+//! the body are then restarted at rest there.
 
 use super::motion::Prediction;
 use super::search::{grid_min_bounded, Window};
@@ -45,8 +48,12 @@ impl Tracker {
             }
             let body = self.descendants_and_self(r);
             // Each rigid candidate is then tracked into place as a frame would be, and the
-            // one whose root fits best is taken, if it fits as on a frame where it is seen.
+            // one whose body fits best is taken, if its root fits as on a frame where it is
+            // seen and the body fits better than where it is now.
+            let body_fit =
+                |ev: &[f32]| body.iter().map(|&k| ev[k]).sum::<f32>() / body.len() as f32;
             let mut best: Option<(f32, Vec<Point>, bool)> = None;
+            let now = body_fit(evidence);
             for (placed, flip) in self.redetect_candidates(coarse, r, x, evidence) {
                 self.flip_strips(&body, flip);
                 let mut trial = x.to_vec();
@@ -56,13 +63,14 @@ impl Tracker {
                 let pred = self.wide_prediction(&trial, coarse.img.scale);
                 let mut y = self.search(views, &pred);
                 self.refine(views, &pred, &mut y);
-                let e = self.evidence(&self.fits(judge, &y))[r];
+                let ev = self.evidence(&self.fits(judge, &y));
                 self.flip_strips(&body, flip);
-                if self.on_another_body(r, y[r], x, evidence) {
+                if ev[r] < p.redetect_share || self.on_another_body(r, y[r], x, evidence) {
                     continue;
                 }
-                if e >= p.redetect_share && best.as_ref().is_none_or(|b| e > b.0) {
-                    best = Some((e, body.iter().map(|&k| y[k]).collect(), flip));
+                let fit = body_fit(&ev);
+                if fit > now && best.as_ref().is_none_or(|b| fit > b.0) {
+                    best = Some((fit, body.iter().map(|&k| y[k]).collect(), flip));
                 }
             }
             if let Some((_, placed, flip)) = best {
