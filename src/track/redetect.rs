@@ -1,16 +1,18 @@
-//! Whole-body re-detection: a body whose root has gone unseen for a while (the character turned,
-//! crossed the frame while hidden, or the tracker slid off it) is looked for over the whole frame,
-//! so a lost track comes back instead of staying where it was lost (docs/method.md §2.6:
-//! the search widened to the whole frame).
+//! Whole-body re-detection: a body the tracker has lost (the character turned, crossed the
+//! frame while hidden, or the tracker slid off it) is looked for over the whole frame, so a lost
+//! track comes back instead of staying where it was lost (docs/method.md §2.6: the search widened
+//! to the whole frame).
 //!
-//! The body is searched rigidly, in the pose it had when it was lost and in its seed pose, each
-//! as it is and mirrored left to right (a character that turned round), at the coarsest pyramid
-//! level; each placement is then tracked into place like a frame (bone search and refinement
-//! with wide windows). Judged on the judging level, the placement whose whole body fits best is
-//! taken, if the root's strips fit at least `redetect_share` there and the body fits better than
-//! where the tracker has it: judged by the root alone, a root hidden behind the hands on the seed
-//! frame took a left–right mirrored body over one that was tracking well. The motion models of
-//! the body are then restarted at rest there.
+//! A body is looked for when its root has gone unseen for a while, or when its joints are on the
+//! whole unseen (a root can fit where the rest of the body does not). It is searched rigidly, in
+//! the pose it had when it was lost and in its seed pose, each as it is and mirrored left to
+//! right (a character that turned round), at the coarsest pyramid level; each placement is then
+//! tracked into place like a frame (bone search and refinement with wide windows). Judged on the
+//! judging level, the placement whose whole body fits best is taken, if the root's strips fit at
+//! least `redetect_share` there and the body fits better than where the tracker has it: judged
+//! by the root alone, a root hidden behind the hands on the seed frame took a left–right
+//! mirrored body over one that was tracking well. The motion models of the body are then
+//! restarted at rest there.
 
 use super::motion::Prediction;
 use super::search::{grid_min_bounded, Window};
@@ -19,9 +21,10 @@ use super::Tracker;
 use crate::geom::{Point, Vector};
 
 impl Tracker {
-    /// Looks for every root that has been unseen for [`super::TrackParams::redetect_after`]
-    /// frames (then every `redetect_every` frames while it stays unseen), with the joints at `x`
-    /// and this frame's `evidence`. Moves what is found (the root and everything below it) and
+    /// Looks for every body whose root has been unseen for
+    /// [`super::TrackParams::redetect_after`] frames (then every `redetect_every` frames while it
+    /// stays unseen), or whose joints are on the whole unseen (every `redetect_every` frames),
+    /// with the joints at `x` and this frame's `evidence`. Moves what is found (the root and everything below it) and
     /// returns which joints moved.
     pub(super) fn redetect(
         &mut self,
@@ -36,24 +39,34 @@ impl Tracker {
             return found;
         }
         let coarse = &views[views.len() - 1];
+        // Frames stepped before this one (kept in the tracker's state): the clock of the
+        // looks for a body lost as a whole.
+        let clock = self.timings.frames;
+        let every = p.redetect_every.max(1);
         for r in 0..x.len() {
-            if self.parents[r].is_some() || evidence[r] >= p.seen_share {
-                continue;
-            }
-            let run = self.joints[r].hidden_run + 1;
-            if run < p.redetect_after
-                || !(run - p.redetect_after).is_multiple_of(p.redetect_every.max(1))
-            {
+            if self.parents[r].is_some() {
                 continue;
             }
             let body = self.descendants_and_self(r);
+            // Looked for when its root has been hidden for a while, or when the body as a
+            // whole is not seen (its joints' mean evidence under `seen_share`) though the
+            // root fits: a root that fits where the rest of the body does not is no sign
+            // that the body is in place, and the root is only the user's choice.
+            let body_fit =
+                |ev: &[f32]| body.iter().map(|&k| ev[k]).sum::<f32>() / body.len() as f32;
+            let now = body_fit(evidence);
+            let run = self.joints[r].hidden_run + 1;
+            let root_hidden = evidence[r] < p.seen_share
+                && run >= p.redetect_after
+                && (run - p.redetect_after).is_multiple_of(every);
+            let body_lost = now < p.seen_share && clock.is_multiple_of(every as u64);
+            if !root_hidden && !body_lost {
+                continue;
+            }
             // Each rigid candidate is then tracked into place as a frame would be, and the
             // one whose body fits best is taken, if its root fits as on a frame where it is
             // seen and the body fits better than where it is now.
-            let body_fit =
-                |ev: &[f32]| body.iter().map(|&k| ev[k]).sum::<f32>() / body.len() as f32;
             let mut best: Option<(f32, Vec<Point>, bool)> = None;
-            let now = body_fit(evidence);
             for (placed, flip) in self.redetect_candidates(coarse, r, x, evidence) {
                 self.flip_strips(&body, flip);
                 let mut trial = x.to_vec();

@@ -245,12 +245,12 @@ fn the_root_of_the_skeleton_does_not_change_the_uncorrected_dance() {
         scores.push((root, hit as f64 / n as f64));
     }
     println!("dance uncorrected, PCK@20 by root: {scores:?}");
-    // Measured over the 16 seeded joints: 26.4, 26.5, 26.4, 27.1 % (`eval`, counting the
-    // unseeded right ankle as misses: 24.9, 25.0, 24.9, 25.6 %). Before a re-detected body had
+    // Measured over the 16 seeded joints: 29.5, 29.5, 29.2, 30.6 % (`eval`, counting the
+    // unseeded right ankle as misses: 27.8, 27.8, 27.5, 28.8 %). Before a re-detected body had
     // to fit better than where it was, a hidden root could take a mirrored body: 20.9 % at the
-    // hips.
+    // hips (`eval`).
     let lo = scores.iter().map(|s| s.1).fold(1.0, f64::min);
     let hi = scores.iter().map(|s| s.1).fold(0.0, f64::max);
-    assert!(lo >= 0.255, "{scores:?}");
-    assert!(hi - lo <= 0.015, "{scores:?}");
+    assert!(lo >= 0.285, "{scores:?}");
+    assert!(hi - lo <= 0.02, "{scores:?}");
 }
