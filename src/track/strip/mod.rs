@@ -29,6 +29,8 @@ mod learn;
 mod sample;
 #[cfg(target_arch = "x86_64")]
 mod simd;
+#[cfg(target_arch = "x86_64")]
+mod simd_normal;
 
 /// What a strip is matched against: one pyramid level of the frame, the same level of the
 /// clean plate when there is one, and the frame's brightness gain over the plate.

@@ -20,7 +20,7 @@ use std::arch::x86_64::*;
 /// # Safety
 /// The CPU must have AVX2 (inlined into [`Strip::coarse_cost_until_avx2`] only).
 #[inline(always)]
-unsafe fn cells(img: &Image, at: __m256i) -> [__m256i; 4] {
+pub(super) unsafe fn cells(img: &Image, at: __m256i) -> [__m256i; 4] {
     // Each word is loaded straight into its lane (no bytes stored and read back as a vector),
     // written out lane by lane: the intrinsics need constant lane numbers.
     macro_rules! pair {
@@ -65,7 +65,7 @@ unsafe fn cells(img: &Image, at: __m256i) -> [__m256i; 4] {
 /// # Safety
 /// The CPU must have AVX2 (inlined into [`Strip::coarse_cost_until_avx2`] only).
 #[inline(always)]
-unsafe fn bilinear(words: &[__m256i; 4], fx: __m256, fy: __m256) -> [__m256; 3] {
+pub(super) unsafe fn bilinear(words: &[__m256i; 4], fx: __m256, fy: __m256) -> [__m256; 3] {
     let byte = _mm256_set1_epi32(0xff);
     // Channel `ch` of the first pixel of a pair is byte `ch` of its first word; of the second
     // pixel, byte `ch + 1` of its last word (bytes 2–5: a₂ b₀ b₁ b₂).
@@ -88,6 +88,27 @@ unsafe fn bilinear(words: &[__m256i; 4], fx: __m256, fy: __m256) -> [__m256; 3] 
         *o = _mm256_add_ps(top, _mm256_mul_ps(_mm256_sub_ps(bot, top), fy));
     }
     out
+}
+
+/// `floor_small` of `cost.rs`, lane by lane: `⌊x⌋` as an integer and as a float, for
+/// `0 ≤ x < 2²³`.
+///
+/// # Safety
+/// The CPU must have AVX2 (inlined into AVX2 builds only).
+#[inline(always)]
+pub(super) unsafe fn floor(x: __m256) -> (__m256i, __m256) {
+    let big = _mm256_set1_ps(8_388_608.0);
+    let r = _mm256_sub_ps(_mm256_add_ps(x, big), big);
+    let f = _mm256_blendv_ps(
+        r,
+        _mm256_sub_ps(r, _mm256_set1_ps(1.0)),
+        _mm256_cmp_ps::<_CMP_GT_OQ>(r, x),
+    );
+    let i = _mm256_sub_epi32(
+        _mm256_castps_si256(_mm256_add_ps(f, big)),
+        _mm256_castps_si256(big),
+    );
+    (i, f)
 }
 
 impl Strip {
@@ -131,7 +152,7 @@ impl Strip {
         let (nx, ny) = (s(place.n.x), s(place.n.y));
         let (offset, scale) = (s(v.img.offset), s(v.img.inv_scale));
         let (zero, one, gain, inv_v) = (s(0.0), s(1.0), s(v.gain), s(inv));
-        let (big, check_e) = (s(8_388_608.0), s(PLATE_CHECK_E));
+        let check_e = s(PLATE_CHECK_E);
         let (bg_inv, infinity) = (s(v.bg_inv), s(f32::INFINITY));
         let abs = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
         let mut sum = 0.0f32;
@@ -160,16 +181,6 @@ impl Strip {
                     _mm256_cmp_ps::<_CMP_LT_OQ>(ly, ymax),
                 ),
             );
-            let floor = |x: __m256| {
-                let r = _mm256_sub_ps(_mm256_add_ps(x, big), big);
-                let f =
-                    _mm256_blendv_ps(r, _mm256_sub_ps(r, one), _mm256_cmp_ps::<_CMP_GT_OQ>(r, x));
-                let i = _mm256_sub_epi32(
-                    _mm256_castps_si256(_mm256_add_ps(f, big)),
-                    _mm256_castps_si256(big),
-                );
-                (i, f)
-            };
             let (cx, cy) = (_mm256_and_ps(lx, inside), _mm256_and_ps(ly, inside));
             let ((x0, flx), (y0, fly)) = (floor(cx), floor(cy));
             let (fx, fy) = (_mm256_sub_ps(cx, flx), _mm256_sub_ps(cy, fly));
