@@ -112,8 +112,8 @@ impl Strip {
     /// by side, each with the same operations as one at a time, and the terms are added in
     /// sample order, so the sum does not depend on the blocking.
     ///
-    /// On a CPU with AVX2 the same code runs compiled for it (eight lanes in one register; no
-    /// fused multiply-adds, so the same bits).
+    /// On a CPU with AVX2 the same operations run in AVX2 instructions (eight lanes in one
+    /// register; no fused multiply-adds, so the same bits: see `simd.rs`).
     pub fn coarse_cost_until(
         &self,
         v: &View,
@@ -127,23 +127,6 @@ impl Strip {
             // SAFETY: the CPU has AVX2.
             return unsafe { self.coarse_cost_until_avx2(v, p, c, mirrored, stop) };
         }
-        self.coarse_cost_until_any(v, p, c, mirrored, stop)
-    }
-
-    /// [`Strip::coarse_cost_until`] compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn coarse_cost_until_avx2(
-        &self,
-        v: &View,
-        p: Point,
-        c: Point,
-        mirrored: bool,
-        stop: impl Fn(f32) -> bool,
-    ) -> Option<f32> {
         self.coarse_cost_until_any(v, p, c, mirrored, stop)
     }
 
@@ -330,31 +313,15 @@ impl Strip {
     /// `ρ'(e) = 1/(1+e)²`), the colour scale widened `widen` times (graduated non-convexity: a
     /// wide scale first lets samples on a misplaced sharp edge still pull).
     ///
-    /// On a CPU with AVX2 the same code runs compiled for it (no fused multiply-adds, so the
-    /// same bits).
+    /// On a CPU with AVX2 the per-sample work runs in AVX2 instructions, eight samples side by
+    /// side (no fused multiply-adds, the sums in sample order: the same bits; see
+    /// `simd_normal.rs`).
     pub fn normal(&self, v: &View, p: Point, c: Point, weight: f32, widen: f32) -> Normal {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
             return unsafe { self.normal_avx2(v, p, c, weight, widen) };
         }
-        self.normal_any(v, p, c, weight, widen)
-    }
-
-    /// [`Strip::normal`] compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn normal_avx2(
-        &self,
-        v: &View,
-        p: Point,
-        c: Point,
-        weight: f32,
-        widen: f32,
-    ) -> Normal {
         self.normal_any(v, p, c, weight, widen)
     }
 

@@ -27,6 +27,10 @@ use crate::geom::{Point, Vector};
 mod cost;
 mod learn;
 mod sample;
+#[cfg(target_arch = "x86_64")]
+mod simd;
+#[cfg(target_arch = "x86_64")]
+mod simd_normal;
 
 /// What a strip is matched against: one pyramid level of the frame, the same level of the
 /// clean plate when there is one, and the frame's brightness gain over the plate.
@@ -340,7 +344,7 @@ impl Strip {
                 let w = if self.width_exponent == 0.0 {
                     1.0
                 } else {
-                    (self.seed_len / len).powf(self.width_exponent)
+                    pow_cached(self.seed_len / len, self.width_exponent)
                 };
                 Placement {
                     o: p.coords,
@@ -379,6 +383,31 @@ impl Strip {
     fn inv_scale(&self) -> f32 {
         1.0 / (3.0 * self.sigma * self.sigma)
     }
+}
+
+/// `x.powf(y)`, remembered per thread for the last arguments that fell in each of 64 slots: a
+/// search lays the same strips at the same lengths again and again (a translation moves both
+/// ends by the same offset, usually without rounding the difference), and `powf` was 3 % of
+/// a dance run. The value is `powf`'s to the bit (a pure function); slot 0 starts as
+/// `powf(+0, +0) = 1`.
+#[inline]
+fn pow_cached(x: f32, y: f32) -> f32 {
+    use std::cell::Cell;
+    thread_local! {
+        static SLOTS: [Cell<(u64, f32)>; 64] = const { [const { Cell::new((0, 1.0)) }; 64] };
+    }
+    let key = (x.to_bits() as u64) << 32 | y.to_bits() as u64;
+    let b = x.to_bits();
+    let slot = ((b ^ (b >> 6) ^ (b >> 12) ^ (b >> 18)) & 63) as usize;
+    SLOTS.with(|s| {
+        let (k, v) = s[slot].get();
+        if k == key {
+            return v;
+        }
+        let v = x.powf(y);
+        s[slot].set((key, v));
+        v
+    })
 }
 
 #[cfg(test)]
