@@ -74,9 +74,11 @@ impl<'a> Image<'a> {
     /// 3 bytes (RGB) each.
     #[inline(always)]
     pub fn pairs_at(&self, i: usize) -> (&[u8; 6], &[u8; 6]) {
-        let j = i + 3 * self.w;
-        let t = self.raw[i..i + 6].try_into().expect("6 bytes");
-        let u = self.raw[j..j + 6].try_into().expect("6 bytes");
+        // One bounds check for both pairs: the block from the top pair to the end of the bottom.
+        let row = 3 * self.w;
+        let block = &self.raw[i..i + row + 6];
+        let t = block[..6].try_into().expect("6 bytes");
+        let u = block[row..row + 6].try_into().expect("6 bytes");
         (t, u)
     }
 
