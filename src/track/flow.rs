@@ -126,15 +126,54 @@ impl Default for FlowParams {
     }
 }
 
+/// One level's template of a window on frame a: its values, gradients and the sums Σ gx²,
+/// Σ gx gy, Σ gy²; `None` where the window leaves the level.
+type LevelTemplate = Option<(Vec<f32>, Vec<f32>, Vec<f32>, [f32; 3])>;
+
+/// A window's templates around point `p` on a frame's levels, found as Lucas–Kanade reaches
+/// them. A step checked back from frame b finds the templates on b around the point it
+/// reached, which the next step from b (from that point) takes again rather than finding them
+/// anew: they depend on nothing else.
+pub struct Template {
+    p: Point,
+    half: usize,
+    levels: Vec<Option<LevelTemplate>>,
+}
+
+impl Template {
+    fn new(p: Point, half: usize) -> Template {
+        Template {
+            p,
+            half,
+            levels: Vec::new(),
+        }
+    }
+
+    /// Whether these are the templates around `p` (to the bit) for windows of half side `half`.
+    fn fits(&self, p: Point, half: usize) -> bool {
+        (self.p.x.to_bits(), self.p.y.to_bits(), self.half) == (p.x.to_bits(), p.y.to_bits(), half)
+    }
+}
+
 /// Follows `p` (px on frame `a`) to frame `b`. `None` when the window leaves the frame or is
 /// too flat on some level.
 pub fn track_point(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams) -> Option<Point> {
+    track_point_with(a, b, &mut Template::new(p, prm.half), prm)
+}
+
+/// [`track_point`] from `tpl.p`, with the templates on `a` found so far.
+fn track_point_with(
+    a: &GreyPyramid,
+    b: &GreyPyramid,
+    tpl: &mut Template,
+    prm: &FlowParams,
+) -> Option<Point> {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2.
-        return unsafe { track_point_avx2(a, b, p, prm) };
+        return unsafe { track_point_avx2(a, b, tpl, prm) };
     }
-    track_point_any(a, b, p, prm)
+    track_point_any(a, b, tpl, prm)
 }
 
 /// [`track_point`] compiled for AVX2 (the same arithmetic in the same order, so the same
@@ -147,21 +186,27 @@ pub fn track_point(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams)
 unsafe fn track_point_avx2(
     a: &GreyPyramid,
     b: &GreyPyramid,
-    p: Point,
+    tpl: &mut Template,
     prm: &FlowParams,
 ) -> Option<Point> {
-    track_point_any(a, b, p, prm)
+    track_point_any(a, b, tpl, prm)
 }
 
 #[inline(always)]
-fn track_point_any(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams) -> Option<Point> {
+fn track_point_any(
+    a: &GreyPyramid,
+    b: &GreyPyramid,
+    tpl: &mut Template,
+    prm: &FlowParams,
+) -> Option<Point> {
+    let p = tpl.p;
     let levels = a.levels.len().min(b.levels.len());
     let half = prm.half as i32;
     let n = (2 * half + 1) as usize;
-    let mut tmpl = vec![0.0f32; n * n];
-    let mut gx = vec![0.0f32; n * n];
-    let mut gy = vec![0.0f32; n * n];
     let mut work = Work::default();
+    if tpl.levels.len() < levels {
+        tpl.levels.resize_with(levels, || None);
+    }
     // Displacement guess, in the current level's px.
     let (mut dx, mut dy) = (0.0f32, 0.0f32);
     for lvl in (0..levels).rev() {
@@ -171,8 +216,18 @@ fn track_point_any(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams)
         let (px, py) = (p.x * s, p.y * s);
         // Template, its gradients and their matrix on frame a: per column its centre, left
         // and right neighbours' axes, per row its centre, upper and lower ones.
-        let inside = work.cols.set(px, half, la.width) && work.rows.set(py, half, la.height);
-        if !inside {
+        if tpl.levels[lvl].is_none() {
+            let inside = work.cols.set(px, half, la.width) && work.rows.set(py, half, la.height);
+            let mut found = None;
+            if inside {
+                let (mut tmpl, mut gx, mut gy) =
+                    (vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]);
+                let (gxx, gxy, gyy) = template(la, &mut tmpl, &mut gx, &mut gy, &mut work);
+                found = Some((tmpl, gx, gy, [gxx, gxy, gyy]));
+            }
+            tpl.levels[lvl] = Some(found);
+        }
+        let Some(Some((tmpl, gx, gy, [gxx, gxy, gyy]))) = tpl.levels[lvl].as_ref() else {
             // The window leaves a coarse level near the border: go on at the next finer one.
             if lvl == 0 {
                 return None;
@@ -180,8 +235,8 @@ fn track_point_any(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams)
             dx *= 2.0;
             dy *= 2.0;
             continue;
-        }
-        let (gxx, gxy, gyy) = template(la, &mut tmpl, &mut gx, &mut gy, &mut work);
+        };
+        let (gxx, gxy, gyy) = (*gxx, *gxy, *gyy);
         let area = (n * n) as f32;
         let tr = gxx + gyy;
         let det = gxx * gyy - gxy * gxy;
@@ -194,7 +249,7 @@ fn track_point_any(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams)
             if !work.wcols.set(bxp, half, lb.width) || !work.wrows.set(byp, half, lb.height) {
                 return None;
             }
-            let (bx, by) = window_sums(lb, &tmpl, &gx, &gy, &mut work);
+            let (bx, by) = window_sums(lb, tmpl, gx, gy, &mut work);
             let sx = (gyy * bx - gxy * by) / det;
             let sy = (gxx * by - gxy * bx) / det;
             dx += sx;
@@ -220,9 +275,30 @@ pub fn track_checked(
     p: Point,
     prm: &FlowParams,
 ) -> Option<(Point, f32)> {
-    let q = track_point(a, b, p, prm)?;
-    let r = track_point(b, a, q, prm)?;
-    Some((q, (r - p).norm()))
+    track_checked_again(a, b, p, prm, None).0
+}
+
+/// [`track_checked`], taking the templates around `p` on `a` from `known` where they are those
+/// (the last step's, from its way back), and giving those around the point reached on `b`
+/// for the next step.
+pub fn track_checked_again(
+    a: &GreyPyramid,
+    b: &GreyPyramid,
+    p: Point,
+    prm: &FlowParams,
+    known: Option<Template>,
+) -> (Option<(Point, f32)>, Option<Template>) {
+    let mut ta = known
+        .filter(|t| t.fits(p, prm.half))
+        .unwrap_or_else(|| Template::new(p, prm.half));
+    let Some(q) = track_point_with(a, b, &mut ta, prm) else {
+        return (None, None);
+    };
+    let mut tb = Template::new(q, prm.half);
+    match track_point_with(b, a, &mut tb, prm) {
+        Some(r) => (Some((q, (r - p).norm())), Some(tb)),
+        None => (None, None),
+    }
 }
 
 #[cfg(test)]

@@ -36,23 +36,61 @@ pub(super) fn pyramids_of(mut spare: Vec<GreyPyramid>, images: &[&RgbImage]) -> 
     spare
 }
 
+/// A segment's frames' grey pyramids, built one by one as the frames arrive (in the last
+/// segment's buffers), when they are wanted.
+pub(super) struct Built {
+    pyramids: Option<Vec<GreyPyramid>>,
+    count: usize,
+}
+
+impl Built {
+    pub(super) fn new(wanted: bool) -> Built {
+        Built {
+            pyramids: wanted.then(take_spare),
+            count: 0,
+        }
+    }
+
+    /// Builds the next frame's pyramid.
+    pub(super) fn add(&mut self, frame: &RgbImage) {
+        if let Some(p) = &mut self.pyramids {
+            if p.len() == self.count {
+                p.push(GreyPyramid { levels: Vec::new() });
+            }
+            p[self.count].rebuild(frame, KEYED_LEVELS);
+            self.count += 1;
+        }
+    }
+
+    /// The pyramids built, in the frames' order (once).
+    pub(super) fn take(&mut self) -> Option<Vec<GreyPyramid>> {
+        let mut p = self.pyramids.take()?;
+        p.truncate(self.count);
+        Some(p)
+    }
+}
+
 /// Keeps `pyramids` for the next segment's ([`take_spare`]); an empty list lets them go.
 pub(super) fn put_spare(pyramids: Vec<GreyPyramid>) {
     SPARE.with(|s| *s.borrow_mut() = pyramids);
 }
 
-/// The grey pyramids of `images` (built in `spare`'s buffers; the key on the first, `start`,
-/// the correction on the last, `end`) and, with `ways`, Lucas–Kanade's ways between the two, for [`led_by_flow`] and the
+/// The grey pyramids of `images` (`pyramids`, built as the frames arrived ([`Built`]), else
+/// built now in their buffers; the key on the first, `start`, the correction on the last,
+/// `end`) and, with `ways`, Lucas–Kanade's ways between the two, for [`led_by_flow`] and the
 /// solve that follows. `boxes[j]`: joint `j`'s rectangle's smaller side (px).
 pub(super) fn follow_flow(
-    spare: Vec<GreyPyramid>,
+    pyramids: Vec<GreyPyramid>,
     images: &[&RgbImage],
     start: &[JointEstimate],
     end: &[JointEstimate],
     ways: bool,
     boxes: &[u32],
 ) -> (Vec<GreyPyramid>, Option<keyed::Ways>) {
-    let pyramids = pyramids_of(spare, images);
+    let pyramids = match pyramids.len() == images.len() {
+        true => pyramids,
+        false => pyramids_of(pyramids, images),
+    };
     if !ways {
         return (pyramids, None);
     }

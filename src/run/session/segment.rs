@@ -103,10 +103,19 @@ impl Session {
         }
         let mut held: Vec<RgbImage> = Vec::new();
         let mut boundary: Option<RgbImage> = None;
+        // Lucas–Kanade's pyramids of the frames held (and the first and the next key's), built
+        // as they arrive, alongside the passes.
+        let mut built = flow::Built::new(hold);
+        built.add(first);
         while let Some((idx, frame)) = frames.next()? {
-            for p in &mut forward {
-                p.step(idx, &frame);
-            }
+            rayon::join(
+                || {
+                    for p in &mut forward {
+                        p.step(idx, &frame);
+                    }
+                },
+                || built.add(&frame),
+            );
             if idx == next {
                 boundary = Some(frame);
                 break;
@@ -185,13 +194,13 @@ impl Session {
                 // passes: where the span is to be judged, they are found alongside the first.
                 let judge = lean && led_early.is_none();
                 // (The spare buffers are this thread's: taken here, not on the pool's.)
-                let spare = judge.then(flow::take_spare);
+                let ready = if judge { built.take() } else { None };
                 let (back, flow) = rayon::join(
                     || back_pass(appearance),
                     || {
-                        spare.map(|spare| {
+                        ready.map(|pyramids| {
                             flow::follow_flow(
-                                spare,
+                                pyramids,
                                 &images,
                                 &out[0].1,
                                 &end.row,
@@ -303,7 +312,13 @@ impl Session {
             let top = anchors.last().expect("two anchors").0;
             let pyramids: Vec<GreyPyramid> = match early_pyramids.take() {
                 Some(p) => p,
-                None => flow::pyramids_of(flow::take_spare(), &images[..=top]),
+                None => match built.take() {
+                    Some(mut p) if p.len() == images.len() => {
+                        p.truncate(top + 1);
+                        p
+                    }
+                    _ => flow::pyramids_of(flow::take_spare(), &images[..=top]),
+                },
             };
             let prm = keyed::KeyedParams::default();
             let mut doubt: Vec<Vec<f32>> = vec![vec![0.0; self.names.len()]; top + 1];
