@@ -8,6 +8,7 @@ use super::GreyLevel;
 /// fraction within it, `None` outside (one pixel margin). A window's samples share their
 /// columns' and rows' axes, so each is found once per window rather than once per pixel.
 #[inline]
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN is outside too
 fn axis(v: f32, len: usize) -> Option<(usize, f32)> {
     if !(v >= 0.0) {
         return None;
