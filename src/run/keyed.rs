@@ -23,7 +23,7 @@
 //! so they are solved in parallel with the same result as in sequence.
 
 use crate::geom::Point;
-use crate::track::flow::{track_checked, FlowParams, GreyPyramid};
+use crate::track::flow::{track_checked_again, FlowParams, GreyPyramid};
 use crate::track::Status;
 use rayon::prelude::*;
 
@@ -140,11 +140,15 @@ fn pass(
     pos.push(p0);
     var.push(0.0);
     let (mut p, mut v) = (p0, 0.0f64);
+    // The window's templates around `p` on the frame the next step starts from, when known.
+    let mut known = None;
     for w in frames.windows(2) {
-        match track_checked(w[0], w[1], p, prm) {
+        let (step, there) = track_checked_again(w[0], w[1], p, prm, known.take());
+        match step {
             Some((q, e)) if e <= max_fb => {
                 p = q;
                 v += ((e + floor) as f64).powi(2);
+                known = there;
             }
             _ => v += FAILED_STEP_VAR,
         }

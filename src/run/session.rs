@@ -39,6 +39,7 @@ use image::RgbImage;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
+mod flow;
 mod pass;
 mod segment;
 

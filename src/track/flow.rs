@@ -15,6 +15,12 @@
 use crate::geom::Point;
 use image::RgbImage;
 
+mod build;
+mod window;
+
+use build::{halve_row, luma_into};
+use window::{template, window_sums, Work};
+
 /// One level of a grey pyramid: luma 0–255 as `f32`, row-major.
 #[derive(Debug, Clone)]
 pub struct GreyLevel {
@@ -24,40 +30,32 @@ pub struct GreyLevel {
 }
 
 impl GreyLevel {
-    /// Bilinear sample at `(x, y)` (level px); `None` outside the level (one pixel margin).
-    #[inline]
-    fn sample(&self, x: f32, y: f32) -> Option<f32> {
-        if !(x >= 0.0 && y >= 0.0) {
-            return None;
-        }
-        let (x0, y0) = (x as usize, y as usize);
-        if x0 + 1 >= self.width || y0 + 1 >= self.height {
-            return None;
-        }
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let i = y0 * self.width + x0;
-        let d = &self.data;
-        let top = d[i] + fx * (d[i + 1] - d[i]);
-        let bot = d[i + self.width] + fx * (d[i + self.width + 1] - d[i + self.width]);
-        Some(top + fy * (bot - top))
-    }
-
-    /// The level halved by 2×2 box averages (an odd last row or column is dropped).
-    fn halved(&self) -> GreyLevel {
-        let (w, h) = (self.width / 2, self.height / 2);
-        let mut data = Vec::with_capacity(w * h);
-        for y in 0..h {
-            let r0 = &self.data[2 * y * self.width..];
-            let r1 = &self.data[(2 * y + 1) * self.width..];
-            for x in 0..w {
-                data.push(0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]));
-            }
+    /// This level's buffer resized to `width` × `height` (its values to be overwritten).
+    fn reshape(mut self, width: usize, height: usize) -> GreyLevel {
+        if self.data.len() != width * height {
+            self.data.clear();
+            self.data.resize(width * height, 0.0);
         }
         GreyLevel {
-            width: w,
-            height: h,
-            data,
+            width,
+            height,
+            data: self.data,
         }
+    }
+
+    /// `next` (reshaped to half this level's size) filled with this level halved by 2×2 box
+    /// averages (an odd last row or column is dropped).
+    fn halve_into(&self, next: GreyLevel) -> GreyLevel {
+        let (w, h) = (self.width / 2, self.height / 2);
+        let mut next = next.reshape(w, h);
+        if w > 0 {
+            for (y, out) in next.data.chunks_exact_mut(w).enumerate() {
+                let r0 = &self.data[2 * y * self.width..][..2 * w];
+                let r1 = &self.data[(2 * y + 1) * self.width..][..2 * w];
+                halve_row(r0, r1, out);
+            }
+        }
+        next
     }
 }
 
@@ -71,24 +69,36 @@ impl GreyPyramid {
     /// Builds `levels` levels (at least one) from an RGB frame; luma is Rec. 601
     /// (0.299 R + 0.587 G + 0.114 B). Levels stop early once a side would fall below 16 px.
     pub fn new(img: &RgbImage, levels: usize) -> GreyPyramid {
+        let mut p = GreyPyramid { levels: Vec::new() };
+        p.rebuild(img, levels);
+        p
+    }
+
+    /// [`GreyPyramid::new`] into this pyramid's buffers: a pyramid a frame, segment after
+    /// segment, then costs no fresh memory (on 1024 × 1024 frames, paging it in took as long
+    /// as filling it).
+    pub fn rebuild(&mut self, img: &RgbImage, levels: usize) {
         let (w, h) = (img.width() as usize, img.height() as usize);
-        let data = img
-            .pixels()
-            .map(|p| 0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32)
-            .collect();
-        let mut out = vec![GreyLevel {
-            width: w,
-            height: h,
-            data,
-        }];
+        let mut spare = std::mem::take(&mut self.levels).into_iter();
+        let mut buffer = || {
+            spare.next().unwrap_or(GreyLevel {
+                width: 0,
+                height: 0,
+                data: Vec::new(),
+            })
+        };
+        let mut first = buffer().reshape(w, h);
+        luma_into(&img.as_raw()[..w * h * 3], &mut first.data);
+        let mut out = vec![first];
         while out.len() < levels.max(1) {
             let last = out.last().expect("one level");
             if last.width < 32 || last.height < 32 {
                 break;
             }
-            out.push(last.halved());
+            let next = last.halve_into(buffer());
+            out.push(next);
         }
-        GreyPyramid { levels: out }
+        self.levels = out;
     }
 }
 
@@ -116,15 +126,87 @@ impl Default for FlowParams {
     }
 }
 
+/// One level's template of a window on frame a: its values, gradients and the sums Σ gx²,
+/// Σ gx gy, Σ gy²; `None` where the window leaves the level.
+type LevelTemplate = Option<(Vec<f32>, Vec<f32>, Vec<f32>, [f32; 3])>;
+
+/// A window's templates around point `p` on a frame's levels, found as Lucas–Kanade reaches
+/// them. A step checked back from frame b finds the templates on b around the point it
+/// reached, which the next step from b (from that point) takes again rather than finding them
+/// anew: they depend on nothing else.
+pub struct Template {
+    p: Point,
+    half: usize,
+    levels: Vec<Option<LevelTemplate>>,
+}
+
+impl Template {
+    fn new(p: Point, half: usize) -> Template {
+        Template {
+            p,
+            half,
+            levels: Vec::new(),
+        }
+    }
+
+    /// Whether these are the templates around `p` (to the bit) for windows of half side `half`.
+    fn fits(&self, p: Point, half: usize) -> bool {
+        (self.p.x.to_bits(), self.p.y.to_bits(), self.half) == (p.x.to_bits(), p.y.to_bits(), half)
+    }
+}
+
 /// Follows `p` (px on frame `a`) to frame `b`. `None` when the window leaves the frame or is
 /// too flat on some level.
 pub fn track_point(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams) -> Option<Point> {
+    track_point_with(a, b, &mut Template::new(p, prm.half), prm)
+}
+
+/// [`track_point`] from `tpl.p`, with the templates on `a` found so far.
+fn track_point_with(
+    a: &GreyPyramid,
+    b: &GreyPyramid,
+    tpl: &mut Template,
+    prm: &FlowParams,
+) -> Option<Point> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        return unsafe { track_point_avx2(a, b, tpl, prm) };
+    }
+    track_point_any(a, b, tpl, prm)
+}
+
+/// [`track_point`] compiled for AVX2 (the same arithmetic in the same order, so the same
+/// values).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn track_point_avx2(
+    a: &GreyPyramid,
+    b: &GreyPyramid,
+    tpl: &mut Template,
+    prm: &FlowParams,
+) -> Option<Point> {
+    track_point_any(a, b, tpl, prm)
+}
+
+#[inline(always)]
+fn track_point_any(
+    a: &GreyPyramid,
+    b: &GreyPyramid,
+    tpl: &mut Template,
+    prm: &FlowParams,
+) -> Option<Point> {
+    let p = tpl.p;
     let levels = a.levels.len().min(b.levels.len());
     let half = prm.half as i32;
     let n = (2 * half + 1) as usize;
-    let mut tmpl = vec![0.0f32; n * n];
-    let mut gx = vec![0.0f32; n * n];
-    let mut gy = vec![0.0f32; n * n];
+    let mut work = Work::default();
+    if tpl.levels.len() < levels {
+        tpl.levels.resize_with(levels, || None);
+    }
     // Displacement guess, in the current level's px.
     let (mut dx, mut dy) = (0.0f32, 0.0f32);
     for lvl in (0..levels).rev() {
@@ -132,32 +214,20 @@ pub fn track_point(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams)
         let lb = &b.levels[lvl];
         let s = 1.0 / (1u32 << lvl) as f32;
         let (px, py) = (p.x * s, p.y * s);
-        // Template, its gradients and their matrix on frame a.
-        let (mut gxx, mut gxy, mut gyy) = (0.0f32, 0.0f32, 0.0f32);
-        let mut inside = true;
-        'win: for j in -half..=half {
-            for i in -half..=half {
-                let (x, y) = (px + i as f32, py + j as f32);
-                let (Some(c), Some(l), Some(r), Some(u), Some(d)) = (
-                    la.sample(x, y),
-                    la.sample(x - 1.0, y),
-                    la.sample(x + 1.0, y),
-                    la.sample(x, y - 1.0),
-                    la.sample(x, y + 1.0),
-                ) else {
-                    inside = false;
-                    break 'win;
-                };
-                let k = ((j + half) as usize) * n + (i + half) as usize;
-                tmpl[k] = c;
-                gx[k] = 0.5 * (r - l);
-                gy[k] = 0.5 * (d - u);
-                gxx += gx[k] * gx[k];
-                gxy += gx[k] * gy[k];
-                gyy += gy[k] * gy[k];
+        // Template, its gradients and their matrix on frame a: per column its centre, left
+        // and right neighbours' axes, per row its centre, upper and lower ones.
+        if tpl.levels[lvl].is_none() {
+            let inside = work.cols.set(px, half, la.width) && work.rows.set(py, half, la.height);
+            let mut found = None;
+            if inside {
+                let (mut tmpl, mut gx, mut gy) =
+                    (vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n * n]);
+                let (gxx, gxy, gyy) = template(la, &mut tmpl, &mut gx, &mut gy, &mut work);
+                found = Some((tmpl, gx, gy, [gxx, gxy, gyy]));
             }
+            tpl.levels[lvl] = Some(found);
         }
-        if !inside {
+        let Some(Some((tmpl, gx, gy, [gxx, gxy, gyy]))) = tpl.levels[lvl].as_ref() else {
             // The window leaves a coarse level near the border: go on at the next finer one.
             if lvl == 0 {
                 return None;
@@ -165,7 +235,8 @@ pub fn track_point(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams)
             dx *= 2.0;
             dy *= 2.0;
             continue;
-        }
+        };
+        let (gxx, gxy, gyy) = (*gxx, *gxy, *gyy);
         let area = (n * n) as f32;
         let tr = gxx + gyy;
         let det = gxx * gyy - gxy * gxy;
@@ -174,16 +245,11 @@ pub fn track_point(a: &GreyPyramid, b: &GreyPyramid, p: Point, prm: &FlowParams)
             return None;
         }
         for _ in 0..prm.iterations {
-            let (mut bx, mut by) = (0.0f32, 0.0f32);
-            for j in -half..=half {
-                for i in -half..=half {
-                    let k = ((j + half) as usize) * n + (i + half) as usize;
-                    let v = lb.sample(px + dx + i as f32, py + dy + j as f32)?;
-                    let diff = tmpl[k] - v;
-                    bx += diff * gx[k];
-                    by += diff * gy[k];
-                }
+            let (bxp, byp) = (px + dx, py + dy);
+            if !work.wcols.set(bxp, half, lb.width) || !work.wrows.set(byp, half, lb.height) {
+                return None;
             }
+            let (bx, by) = window_sums(lb, tmpl, gx, gy, &mut work);
             let sx = (gyy * bx - gxy * by) / det;
             let sy = (gxx * by - gxy * bx) / det;
             dx += sx;
@@ -209,42 +275,31 @@ pub fn track_checked(
     p: Point,
     prm: &FlowParams,
 ) -> Option<(Point, f32)> {
-    let q = track_point(a, b, p, prm)?;
-    let r = track_point(b, a, q, prm)?;
-    Some((q, (r - p).norm()))
+    track_checked_again(a, b, p, prm, None).0
+}
+
+/// [`track_checked`], taking the templates around `p` on `a` from `known` where they are those
+/// (the last step's, from its way back), and giving those around the point reached on `b`
+/// for the next step.
+pub fn track_checked_again(
+    a: &GreyPyramid,
+    b: &GreyPyramid,
+    p: Point,
+    prm: &FlowParams,
+    known: Option<Template>,
+) -> (Option<(Point, f32)>, Option<Template>) {
+    let mut ta = known
+        .filter(|t| t.fits(p, prm.half))
+        .unwrap_or_else(|| Template::new(p, prm.half));
+    let Some(q) = track_point_with(a, b, &mut ta, prm) else {
+        return (None, None);
+    };
+    let mut tb = Template::new(q, prm.half);
+    match track_point_with(b, a, &mut tb, prm) {
+        Some(r) => (Some((q, (r - p).norm())), Some(tb)),
+        None => (None, None),
+    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A smooth textured frame, shifted by `(sx, sy)` px.
-    fn frame(sx: f32, sy: f32) -> RgbImage {
-        RgbImage::from_fn(160, 120, |x, y| {
-            let (u, v) = (x as f32 - sx, y as f32 - sy);
-            let g =
-                128.0 + 60.0 * (u * 0.21).sin() * (v * 0.17).cos() + 40.0 * ((u + v) * 0.09).sin();
-            image::Rgb([g as u8, g as u8, g as u8])
-        })
-    }
-
-    #[test]
-    fn follows_a_shift_to_a_tenth_of_a_pixel() {
-        let a = GreyPyramid::new(&frame(0.0, 0.0), 4);
-        let b = GreyPyramid::new(&frame(7.3, -4.6), 4);
-        let prm = FlowParams::default();
-        let (q, fb) = track_checked(&a, &b, Point::new(80.0, 60.0), &prm).expect("tracked");
-        assert!(
-            (q.x - 87.3).abs() < 0.1 && (q.y - 55.4).abs() < 0.1,
-            "{q:?}"
-        );
-        assert!(fb < 0.1, "forward–backward error {fb}");
-    }
-
-    #[test]
-    fn refuses_a_flat_window() {
-        let flat = RgbImage::from_pixel(160, 120, image::Rgb([90, 90, 90]));
-        let a = GreyPyramid::new(&flat, 4);
-        assert!(track_point(&a, &a, Point::new(80.0, 60.0), &FlowParams::default()).is_none());
-    }
-}
+mod tests;

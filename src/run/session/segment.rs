@@ -2,6 +2,7 @@
 //! their blend, and between keys the path solved through both ends (docs/method.md §3, "Motion
 //! between keys").
 
+use super::flow;
 use super::pass::{Appearance, Frames, Pass};
 use super::Session;
 use crate::error::Result;
@@ -59,12 +60,6 @@ impl Session {
                 Some(b) => Appearance::Learnt(k, b),
             },
         )?];
-        if corrected {
-            forward.push(self.tracker_at(&start, first, Appearance::Here)?);
-            if end.is_some() {
-                forward.push(self.tracker_at(&start, first, Appearance::SeedFrame)?);
-            }
-        }
         // Keys of `keys.toml` on this segment's first frame, inside it, and on the next one's
         // first frame ([`crate::run::keys`]).
         let first_frame = plan.first_frame(k);
@@ -74,28 +69,53 @@ impl Session {
             .filter(|x| x.frame > first_frame && x.frame < next)
             .collect();
         let key_next = keys.iter().find(|x| x.frame == next);
-        if let Some(key) = key_here {
-            for p in &mut forward {
-                p.move_to(key);
-            }
-        }
         let hold = end.is_some() || !inner.is_empty() || key_next.is_some();
         // Between two corrections with no key inside, the passes that only feed the blend wait
         // until the span is known not to be led by flow ([`keyed::flow_leads`]): where it is,
         // the carried pass and the one backward from the correction decide, at two passes'
-        // cost instead of five.
+        // cost instead of five. Those passes are not even built until then.
         let lean = corrected && end.is_some() && inner.is_empty() && key_next.is_none();
-        let deferred: Vec<Pass> = if lean {
-            forward.split_off(1)
-        } else {
-            Vec::new()
+        let mut deferred: Vec<Appearance> = Vec::new();
+        if corrected {
+            deferred.push(Appearance::Here);
+            if end.is_some() {
+                deferred.push(Appearance::SeedFrame);
+            }
+        }
+        // Builds the forward passes on the segment's first frame, moved onto a key there.
+        let build = |session: &Self, appearances: &[Appearance]| -> Result<Vec<Pass>> {
+            let mut passes = Vec::new();
+            for &a in appearances {
+                let mut p = session.tracker_at(&start, first, a)?;
+                if let Some(key) = key_here {
+                    p.move_to(key);
+                }
+                passes.push(p);
+            }
+            Ok(passes)
         };
+        if !lean {
+            forward.extend(build(self, &deferred)?);
+            deferred.clear();
+        }
+        if let Some(key) = key_here {
+            forward[0].move_to(key);
+        }
         let mut held: Vec<RgbImage> = Vec::new();
         let mut boundary: Option<RgbImage> = None;
+        // Lucas–Kanade's pyramids of the frames held (and the first and the next key's), built
+        // as they arrive, alongside the passes.
+        let mut built = flow::Built::new(hold);
+        built.add(first);
         while let Some((idx, frame)) = frames.next()? {
-            for p in &mut forward {
-                p.step(idx, &frame);
-            }
+            rayon::join(
+                || {
+                    for p in &mut forward {
+                        p.step(idx, &frame);
+                    }
+                },
+                || built.add(&frame),
+            );
             if idx == next {
                 boundary = Some(frame);
                 break;
@@ -152,16 +172,45 @@ impl Session {
         let passes = if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
             let n = held.len();
             let mut passes: Vec<Vec<Vec<JointEstimate>>> = Vec::new();
-            for appearance in [Appearance::Here, Appearance::SeedFrame] {
-                if let (Appearance::SeedFrame, Some(true)) = (&appearance, led_early) {
-                    break;
-                }
+            // The tracker built on the correction, run backward over the held frames.
+            let back_pass = |appearance: Appearance| -> Result<Vec<(u64, Vec<JointEstimate>)>> {
                 let mut p = self.tracker_at(end, bf, appearance)?;
                 for (i, f) in held.iter().enumerate().rev() {
                     p.step(plan.first_frame(k) + 1 + i as u64, f);
                 }
                 let mut back = p.finish();
                 back.reverse();
+                Ok(back)
+            };
+            let images: Vec<&RgbImage> = std::iter::once(first)
+                .chain(held.iter())
+                .chain(Some(bf))
+                .collect();
+            for appearance in [Appearance::Here, Appearance::SeedFrame] {
+                if let (Appearance::SeedFrame, Some(true)) = (&appearance, led_early) {
+                    break;
+                }
+                // Lucas–Kanade's pyramids and ways between the keys do not depend on the
+                // passes: where the span is to be judged, they are found alongside the first.
+                let judge = lean && led_early.is_none();
+                // (The spare buffers are this thread's: taken here, not on the pool's.)
+                let ready = if judge { built.take() } else { None };
+                let (back, flow) = rayon::join(
+                    || back_pass(appearance),
+                    || {
+                        ready.map(|pyramids| {
+                            flow::follow_flow(
+                                pyramids,
+                                &images,
+                                &out[0].1,
+                                &end.row,
+                                carried_end.is_some() && n > 0,
+                                &boxes,
+                            )
+                        })
+                    },
+                );
+                let back = back?;
                 if back_here.is_none() {
                     back_here = Some(
                         back[..n]
@@ -171,21 +220,15 @@ impl Session {
                     );
                 }
                 passes.push(back[..n].iter().map(|(_, e)| e.clone()).collect());
-                if lean && led_early.is_none() {
-                    let images: Vec<&RgbImage> = std::iter::once(first)
-                        .chain(held.iter())
-                        .chain(Some(bf))
-                        .collect();
-                    let (leads, pyramids, ways) = led_by_flow(
-                        &images,
+                if let Some((pyramids, ways)) = flow {
+                    led_early = Some(flow::led_by_flow(
+                        ways.as_ref(),
                         &out[0].1,
                         &end.row,
                         carried_end.as_deref(),
                         &out[1..=n],
                         &passes[0],
-                        &boxes,
-                    );
-                    led_early = Some(leads);
+                    ));
                     early_pyramids = Some(pyramids);
                     early_ways = ways;
                 }
@@ -200,7 +243,7 @@ impl Session {
             let later = match led_early {
                 Some(true) => Vec::new(),
                 _ => run_over(
-                    deferred,
+                    build(self, &deferred)?,
                     first_frame,
                     &held,
                     Some((first_frame + 1 + n as u64, bf)),
@@ -214,7 +257,7 @@ impl Session {
             // correction.
             let n = out.len() - 1;
             let mut passes = vec![between(&out, n)];
-            let later = run_over(deferred, first_frame, &held, None);
+            let later = run_over(build(self, &deferred)?, first_frame, &held, None);
             passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
             passes
         } else {
@@ -269,10 +312,13 @@ impl Session {
             let top = anchors.last().expect("two anchors").0;
             let pyramids: Vec<GreyPyramid> = match early_pyramids.take() {
                 Some(p) => p,
-                None => images[..=top]
-                    .iter()
-                    .map(|f| GreyPyramid::new(f, KEYED_LEVELS))
-                    .collect(),
+                None => match built.take() {
+                    Some(mut p) if p.len() == images.len() => {
+                        p.truncate(top + 1);
+                        p
+                    }
+                    _ => flow::pyramids_of(flow::take_spare(), &images[..=top]),
+                },
             };
             let prm = keyed::KeyedParams::default();
             let mut doubt: Vec<Vec<f32>> = vec![vec![0.0; self.names.len()]; top + 1];
@@ -348,6 +394,12 @@ impl Session {
                     }
                 }
             }
+            // Kept for the next segment's frames; at the clip's end, let go.
+            if boundary.is_some() {
+                flow::put_spare(pyramids);
+            } else {
+                flow::put_spare(Vec::new());
+            }
             for (i, (_, row)) in out.iter_mut().enumerate().take(top + 1).skip(1) {
                 for (j, e) in row.iter_mut().enumerate() {
                     if doubt[i][j].is_nan() {
@@ -391,10 +443,6 @@ impl Session {
     }
 }
 
-/// Levels of the grey pyramids Lucas–Kanade works on between keys (a 31 px window on the
-/// fifth level covers ±240 px of motion at full resolution).
-const KEYED_LEVELS: usize = 5;
-
 /// Runs `passes` (started on frame `first_frame`) over the `held` frames that follow it and
 /// the frame `last` after them, if any (the next key's: a pass hands rows out after it has seen
 /// the frames that follow them, so its rows on the held frames depend on it).
@@ -414,52 +462,6 @@ fn run_over(
         }
     }
     passes.into_iter().map(Pass::finish).collect()
-}
-
-/// Whether the span from the key on `images[0]` (`start`) to the correction on the last image
-/// (`end`) is led by flow ([`keyed::flow_leads`]), judged before the blend from the carried
-/// pass (`carried` on the frames between, `carried_end` on the last) and the pass backward from
-/// the correction (`back` on the frames between), with the images' pyramids and Lucas–Kanade's
-/// ways for the solve that follows. `boxes[j]`: joint `j`'s rectangle's smaller side (px).
-fn led_by_flow(
-    images: &[&RgbImage],
-    start: &[JointEstimate],
-    end: &[JointEstimate],
-    carried_end: Option<&[Point]>,
-    carried: &[(u64, Vec<JointEstimate>)],
-    back: &[Vec<JointEstimate>],
-    boxes: &[u32],
-) -> (bool, Vec<GreyPyramid>, Option<keyed::Ways>) {
-    let pyramids: Vec<GreyPyramid> = images
-        .iter()
-        .map(|f| GreyPyramid::new(f, KEYED_LEVELS))
-        .collect();
-    let (Some(carried_end), Some(back_a)) = (carried_end, back.first()) else {
-        return (false, pyramids, None);
-    };
-    let start_pos: Vec<Point> = start.iter().map(|e| e.pos).collect();
-    let key_b: Vec<Option<Point>> = end.iter().map(|e| Some(e.pos)).collect();
-    let prm = keyed::KeyedParams::default();
-    let ways = keyed::ways(&pyramids, &start_pos, Some(&key_b), boxes, &prm);
-    let lk_miss = ways.misses(&start_pos, Some(&key_b));
-    let misses: Vec<Option<(f32, f32)>> = (0..start.len())
-        .map(|j| {
-            let miss_t =
-                (carried_end[j] - end[j].pos).norm() + (back_a[j].pos - start_pos[j]).norm();
-            Some((miss_t, lk_miss[j]))
-        })
-        .collect();
-    let rows = carried.iter().map(|(_, r)| r).chain(back);
-    let (mut ok, mut all) = (0usize, 0usize);
-    for r in rows {
-        ok += r
-            .iter()
-            .filter(|e| matches!(e.status, Status::Ok | Status::Seed))
-            .count();
-        all += r.len();
-    }
-    let ok_share = ok as f32 / all.max(1) as f32;
-    (keyed::flow_leads(&misses, ok_share), pyramids, Some(ways))
 }
 
 /// Puts a key's joints into a row: their positions, status `seed`, score 1.
