@@ -102,7 +102,7 @@ pub(super) fn follow_flow(
 }
 
 /// Whether the span from the key `start` to the correction `end` is led by flow
-/// ([`keyed::flow_leads`]), judged before the blend from Lucas–Kanade's `ways` between them
+/// ([`keyed::lead`]), judged before the blend from Lucas–Kanade's `ways` between them
 /// ([`follow_flow`]), the carried pass (`carried` on the frames between, `carried_end` on the
 /// last) and the pass backward from the correction (`back` on the frames between).
 pub(super) fn led_by_flow(
@@ -112,9 +112,9 @@ pub(super) fn led_by_flow(
     carried_end: Option<&[Point]>,
     carried: &[(u64, Vec<JointEstimate>)],
     back: &[Vec<JointEstimate>],
-) -> bool {
+) -> keyed::Lead {
     let (Some(ways), Some(carried_end), Some(back_a)) = (ways, carried_end, back.first()) else {
-        return false;
+        return keyed::Lead::Tracker;
     };
     let start_pos: Vec<Point> = start.iter().map(|e| e.pos).collect();
     let key_b: Vec<Option<Point>> = end.iter().map(|e| Some(e.pos)).collect();
@@ -136,5 +136,5 @@ pub(super) fn led_by_flow(
         all += r.len();
     }
     let ok_share = ok as f32 / all.max(1) as f32;
-    keyed::flow_leads(&misses, ok_share)
+    keyed::lead(&misses, ok_share)
 }

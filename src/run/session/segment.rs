@@ -71,7 +71,7 @@ impl Session {
         let key_next = keys.iter().find(|x| x.frame == next);
         let hold = end.is_some() || !inner.is_empty() || key_next.is_some();
         // Between two corrections with no key inside, the passes that only feed the blend wait
-        // until the span is known not to be led by flow ([`keyed::flow_leads`]): where it is,
+        // until the span is known not to be led by flow ([`keyed::lead`]): where it is,
         // the carried pass and the one backward from the correction decide, at two passes'
         // cost instead of five. Those passes are not even built until then.
         let lean = corrected && end.is_some() && inner.is_empty() && key_next.is_none();
@@ -166,7 +166,7 @@ impl Session {
         // The tracker built on the next correction, run backward to this segment's start.
         let mut back_here: Option<Vec<Vec<Point>>> = None;
         // Set when the span was found led by flow before the blend (see `lean`).
-        let mut led_early: Option<bool> = None;
+        let mut led_early: Option<keyed::Lead> = None;
         let mut early_pyramids: Option<Vec<GreyPyramid>> = None;
         let mut early_ways: Option<keyed::Ways> = None;
         let passes = if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
@@ -187,7 +187,7 @@ impl Session {
                 .chain(Some(bf))
                 .collect();
             for appearance in [Appearance::Here, Appearance::SeedFrame] {
-                if let (Appearance::SeedFrame, Some(true)) = (&appearance, led_early) {
+                if matches!(appearance, Appearance::SeedFrame) && lean_enough(led_early) {
                     break;
                 }
                 // Lucas–Kanade's pyramids and ways between the keys do not depend on the
@@ -237,12 +237,12 @@ impl Session {
             // adds nothing there (on flies, 12 files corrected, it cost 1.5 points), unless the
             // span is led by flow and the passes built on the keys' appearance were not run.
             let mut first_passes = Vec::new();
-            if !corrected || led_early == Some(true) {
+            if !corrected || lean_enough(led_early) {
                 first_passes.push(between(&out, n));
             }
-            let later = match led_early {
-                Some(true) => Vec::new(),
-                _ => run_over(
+            let later = match lean_enough(led_early) {
+                true => Vec::new(),
+                false => run_over(
                     build(self, &deferred)?,
                     first_frame,
                     &held,
@@ -371,7 +371,7 @@ impl Session {
                 let ok_share = seen as f32 / track_ok[*ia..=*ib].iter().flatten().count() as f32;
                 let keep_blend = keyed::keep_tracker(
                     &misses,
-                    led_early.unwrap_or_else(|| keyed::flow_leads(&misses, ok_share)),
+                    led_early.unwrap_or_else(|| keyed::lead(&misses, ok_share)),
                 );
                 let blend_kept = *ib == top && end.is_some() && back_here.is_some();
                 let len = (ib - ia) as f32;
@@ -473,4 +473,11 @@ pub(super) fn keyed_row(row: &mut [JointEstimate], key: &Key) {
             e.score = 1.0;
         }
     }
+}
+
+/// Whether a span judged early (from the carried pass and the one backward from the
+/// correction) needs no more tracker passes: Lucas–Kanade leads it (see [`keyed::Lead`]). A
+/// span in doubt runs them all: its joints go to the tracker where it landed nearer the keys.
+fn lean_enough(lead: Option<keyed::Lead>) -> bool {
+    lead == Some(keyed::Lead::Flow)
 }
