@@ -62,22 +62,27 @@ pub(super) unsafe fn cells(img: &Image, at: __m256i) -> [__m256i; 4] {
 /// Bilinear colours (channel by channel) of the cells read by [`cells`], as
 /// [`Image::bilinear_at`] computes them: `a b` on top, `c d` below.
 ///
+/// The byte of every lane of `w` that starts `shift` bits up (0, 8, 16 or 24), as floats.
+///
+/// # Safety
+/// The CPU must have AVX2 (inlined into the AVX2 builds only).
+#[inline(always)]
+pub(super) unsafe fn chan(w: __m256i, shift: i32) -> __m256 {
+    let s = match shift {
+        0 => w,
+        8 => _mm256_srli_epi32::<8>(w),
+        16 => _mm256_srli_epi32::<16>(w),
+        _ => _mm256_srli_epi32::<24>(w),
+    };
+    _mm256_cvtepi32_ps(_mm256_and_si256(s, _mm256_set1_epi32(0xff)))
+}
+
 /// # Safety
 /// The CPU must have AVX2 (inlined into [`Strip::coarse_cost_until_avx2`] only).
 #[inline(always)]
 pub(super) unsafe fn bilinear(words: &[__m256i; 4], fx: __m256, fy: __m256) -> [__m256; 3] {
-    let byte = _mm256_set1_epi32(0xff);
     // Channel `ch` of the first pixel of a pair is byte `ch` of its first word; of the second
     // pixel, byte `ch + 1` of its last word (bytes 2–5: a₂ b₀ b₁ b₂).
-    let chan = |w: __m256i, shift: i32| -> __m256 {
-        let s = match shift {
-            0 => w,
-            8 => _mm256_srli_epi32::<8>(w),
-            16 => _mm256_srli_epi32::<16>(w),
-            _ => _mm256_srli_epi32::<24>(w),
-        };
-        _mm256_cvtepi32_ps(_mm256_and_si256(s, byte))
-    };
     let mut out = [_mm256_setzero_ps(); 3];
     for (ch, o) in out.iter_mut().enumerate() {
         let lo = 8 * ch as i32;

@@ -6,7 +6,7 @@
 //! added into the `f64` sums one sample at a time, in sample order, so the result is the
 //! portable build's to the bit (the test `avx2_builds_give_the_portable_bits`).
 
-use super::simd::{bilinear, cells, floor};
+use super::simd::{bilinear, cells, chan, floor};
 use super::{Normal, Shape, Strip, View, LANES};
 use crate::geom::Point;
 use crate::track::pixels::Image;
@@ -153,16 +153,6 @@ impl Strip {
             );
             _mm256_storeu_si256(at.as_mut_ptr() as *mut __m256i, at_v);
             let words = blocks(img, &at);
-            let byte = _mm256_set1_epi32(0xff);
-            let chan = |w: __m256i, shift: i32| -> __m256 {
-                let s = match shift {
-                    0 => w,
-                    8 => _mm256_srli_epi32::<8>(w),
-                    16 => _mm256_srli_epi32::<16>(w),
-                    _ => _mm256_srli_epi32::<24>(w),
-                };
-                _mm256_cvtepi32_ps(_mm256_and_si256(s, byte))
-            };
             let (cl, cm, cr) = (
                 split(fx),
                 split(_mm256_add_ps(fx, half)),
