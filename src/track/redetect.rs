@@ -24,8 +24,8 @@ impl Tracker {
     /// Looks for every body whose root has been unseen for
     /// [`super::TrackParams::redetect_after`] frames (then every `redetect_every` frames while it
     /// stays unseen), or whose joints are on the whole unseen (every `redetect_every` frames),
-    /// with the joints at `x` and this frame's `evidence`. Moves what is found (the root and everything below it) and
-    /// returns which joints moved.
+    /// with the joints at `x` and this frame's `evidence`. Moves what is found (the root and
+    /// everything below it) and returns which joints moved.
     pub(super) fn redetect(
         &mut self,
         views: &[View],

@@ -77,7 +77,7 @@ pub(super) fn put_spare(pyramids: Vec<GreyPyramid>) {
 
 /// The grey pyramids of `images` (`pyramids`, built as the frames arrived ([`Built`]), else
 /// built now in their buffers; the key on the first, `start`, the correction on the last,
-/// `end`) and, with `ways`, Lucas–Kanade's ways between the two, for [`led_by_flow`] and the
+/// `end`) and, with `ways`, Lucas–Kanade's ways between the two, for [`early_lead`] and the
 /// solve that follows. `boxes[j]`: joint `j`'s rectangle's smaller side (px).
 pub(super) fn follow_flow(
     pyramids: Vec<GreyPyramid>,
@@ -101,11 +101,11 @@ pub(super) fn follow_flow(
     (pyramids, Some(ways))
 }
 
-/// Whether the span from the key `start` to the correction `end` is led by flow
-/// ([`keyed::lead`]), judged before the blend from Lucas–Kanade's `ways` between them
+/// Which cue leads the span from the key `start` to the correction `end` ([`keyed::lead`]),
+/// judged before the blend from Lucas–Kanade's `ways` between them
 /// ([`follow_flow`]), the carried pass (`carried` on the frames between, `carried_end` on the
 /// last) and the pass backward from the correction (`back` on the frames between).
-pub(super) fn led_by_flow(
+pub(super) fn early_lead(
     ways: Option<&keyed::Ways>,
     start: &[JointEstimate],
     end: &[JointEstimate],

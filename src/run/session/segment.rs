@@ -165,7 +165,7 @@ impl Session {
         };
         // The tracker built on the next correction, run backward to this segment's start.
         let mut back_here: Option<Vec<Vec<Point>>> = None;
-        // Set when the span was found led by flow before the blend (see `lean`).
+        // Which cue leads the span, when judged before the blend (see `lean`).
         let mut led_early: Option<keyed::Lead> = None;
         let mut early_pyramids: Option<Vec<GreyPyramid>> = None;
         let mut early_ways: Option<keyed::Ways> = None;
@@ -221,7 +221,7 @@ impl Session {
                 }
                 passes.push(back[..n].iter().map(|(_, e)| e.clone()).collect());
                 if let Some((pyramids, ways)) = flow {
-                    led_early = Some(flow::led_by_flow(
+                    led_early = Some(flow::early_lead(
                         ways.as_ref(),
                         &out[0].1,
                         &end.row,
