@@ -33,6 +33,8 @@ use mocap2d::run::manifest::RUN_TOML;
 use mocap2d::run::session::Session;
 use mocap2d::run::{report, segments, Manifest};
 use mocap2d::seed::read_seeds;
+use mocap2d::track::scale::WorkScale;
+use mocap2d::track::TrackParams;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -183,11 +185,12 @@ fn main() -> Result<()> {
     }
     println!();
     println!(
-        "- **decode**: `decode::open` + `next_frame` to RGB, all frames, in process\n\
+        "- **decode**: `decode::open` + `next_frame` to RGB and the tracker's working image (what \
+         `track`'s decode thread does), all frames, in process\n\
          - **plate**: `BackgroundChoice::Median.build` (what `track` builds before tracking), as \
          frames/s over the clip\n\
          - **tracking**: `run::session::Session::run` (what `track` and `resume` run after the \
-         plate) over frames decoded into memory beforehand; includes each segment's rows and \
+         plate) over frames decoded (with their working images) into memory beforehand; includes each segment's rows and \
          state written as it goes\n\
          - **writing**: the run's end: `tracks.csv` joined from the segments, `report.md`, \
          `run.toml`\n\
@@ -221,12 +224,17 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
         .unwrap_or_else(|| dir.display().to_string());
     eprintln!("== {label}");
 
+    // What the decode thread does for `track`: each frame to RGB, then its working image.
+    let work = WorkScale::for_seeds(&TrackParams::default(), &seeds);
     let mut frames = 0u64;
     let decode = stage("decode", reps, || {
         let t = Instant::now();
         let mut src = decode::open(&clip, None)?;
+        let recycler = decode::Recycler::new();
+        src.recycle_from(recycler.clone());
         frames = 0;
-        while src.next_frame()?.is_some() {
+        while let Some(f) = src.next_frame()? {
+            drop(work.frame(f, Some(&recycler)));
             frames += 1;
         }
         Ok((frames, t.elapsed().as_secs_f64()))
@@ -315,7 +323,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
     let mut decoded = Vec::with_capacity(frames as usize);
     let mut src = decode::open(&clip, None)?;
     while let Some(f) = src.next_frame()? {
-        decoded.push(f);
+        decoded.push(work.frame(f, None));
     }
     let mut manifest = Manifest::read(&run_dir.join(RUN_TOML))?;
     manifest.complete = false;

@@ -117,7 +117,7 @@ pub fn track_into(
         Some(d) => crate::seed::dlc::seeds_from_dlc(&opts.seeds, d)?,
     };
     let work = crate::track::scale::WorkScale::for_seeds(&opts.params, &seeds);
-    let source: Box<dyn FrameSource> = decode::open_beside_tracking(&opts.clip, opts.fps)?;
+    let mut source: Box<dyn FrameSource> = decode::open_beside_tracking(&opts.clip, opts.fps)?;
     let info = source.info().clone();
     let min = crate::seed::MIN_BOX_PX;
     if info.width < min || info.height < min {
@@ -250,7 +250,9 @@ pub fn track_into(
         carried: None,
     };
     progress.start("track", info.frame_count_hint);
-    let rx = decode::spawn_reader(source, 8);
+    let recycler = decode::Recycler::new();
+    source.recycle_from(recycler.clone());
+    let rx = decode::spawn_reader_with(source, 8, move |f| work.frame(f, Some(&recycler)));
     let mut decode_stop = None;
     let result = session.run(
         decode::salvage(rx.into_iter(), info.stated_frames, &mut decode_stop),

@@ -1,6 +1,6 @@
 //! Video files decoded by FFmpeg (ffmpeg-next), converted to RGB one frame at a time.
 
-use super::{spread_indices, ClipInfo, FrameSource, DEFAULT_IMAGE_FPS};
+use super::{spread_indices, ClipInfo, FrameSource, Recycler, DEFAULT_IMAGE_FPS};
 use crate::error::{Error, Result};
 use ff::codec::threading;
 use ff::format::Pixel;
@@ -252,6 +252,10 @@ impl FfmpegSource {
 impl FrameSource for FfmpegSource {
     fn info(&self) -> &ClipInfo {
         &self.info
+    }
+
+    fn recycle_from(&mut self, recycler: Recycler) {
+        self.to_rgb.recycler = Some(recycler);
     }
 
     fn next_frame(&mut self) -> Result<Option<RgbImage>> {

@@ -13,6 +13,7 @@
 mod ffmpeg;
 mod images;
 mod memory;
+mod recycle;
 mod salvage;
 
 use crate::error::{Error, Result};
@@ -26,6 +27,7 @@ pub use self::ffmpeg::FfmpegSource;
 pub(crate) use self::ffmpeg::{init as init_ffmpeg, Scaler};
 pub use self::images::{natural_cmp, ImageFolderSource};
 pub use self::memory::MemorySource;
+pub use self::recycle::Recycler;
 pub use self::salvage::{salvage, short_of_duration, DecodeStop, Salvage};
 
 /// Threads each FFmpeg video decoder may use; 0 (the default) lets FFmpeg pick one per core.
@@ -96,6 +98,11 @@ pub trait FrameSource: Send {
     fn info(&self) -> &ClipInfo;
     /// Next frame in display order (0-based index implied by call count), or Ok(None) at the end.
     fn next_frame(&mut self) -> Result<Option<RgbImage>>;
+    /// From now on, writes frames into buffers taken from `recycler` where it can (the
+    /// frames' bytes are the same). Sources that allocate nothing per frame ignore it.
+    fn recycle_from(&mut self, recycler: Recycler) {
+        let _ = recycler;
+    }
 }
 
 /// Decodes every frame of `path` into memory, in order. For tests and short clips only:
@@ -251,9 +258,20 @@ pub fn sample_frames_and(
 /// item; after the last frame the channel closes. Dropping the receiver stops the thread at its
 /// next send.
 pub fn spawn_reader(
-    mut source: Box<dyn FrameSource>,
+    source: Box<dyn FrameSource>,
     capacity: usize,
 ) -> Receiver<Result<(u64, RgbImage)>> {
+    spawn_reader_with(source, capacity, |frame| frame)
+}
+
+/// [`spawn_reader`], each frame passed through `prepare` on the decode thread before it is
+/// sent: work on a frame that the consumer would otherwise do (the tracker's working image)
+/// then overlaps with the consumer's, on a frame the decoder has just written.
+pub fn spawn_reader_with<T: Send + 'static>(
+    mut source: Box<dyn FrameSource>,
+    capacity: usize,
+    mut prepare: impl FnMut(RgbImage) -> T + Send + 'static,
+) -> Receiver<Result<(u64, T)>> {
     let (tx, rx) = sync_channel(capacity);
     let path = source.info().path.clone();
     let fallback = tx.clone();
@@ -263,7 +281,7 @@ pub fn spawn_reader(
             let mut index = 0u64;
             loop {
                 let item = match source.next_frame() {
-                    Ok(Some(frame)) => Ok((index, frame)),
+                    Ok(Some(frame)) => Ok((index, prepare(frame))),
                     Ok(None) => return,
                     Err(e) => Err(e),
                 };

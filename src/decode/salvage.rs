@@ -3,7 +3,6 @@
 
 use super::ClipInfo;
 use crate::error::{Error, Result};
-use image::RgbImage;
 
 /// Where decoding stopped before the end of a damaged or cut-short clip: `track` keeps the
 /// frames before it and records this in `run.toml` (`[decode_stop]`).
@@ -45,9 +44,9 @@ pub struct Salvage<'a, I> {
 }
 
 /// See [`Salvage`].
-pub fn salvage<I>(inner: I, stated: Option<u64>, stop: &mut Option<DecodeStop>) -> Salvage<'_, I>
+pub fn salvage<I, T>(inner: I, stated: Option<u64>, stop: &mut Option<DecodeStop>) -> Salvage<'_, I>
 where
-    I: Iterator<Item = Result<(u64, RgbImage)>>,
+    I: Iterator<Item = Result<(u64, T)>>,
 {
     Salvage {
         inner,
@@ -58,11 +57,11 @@ where
     }
 }
 
-impl<I> Iterator for Salvage<'_, I>
+impl<I, T> Iterator for Salvage<'_, I>
 where
-    I: Iterator<Item = Result<(u64, RgbImage)>>,
+    I: Iterator<Item = Result<(u64, T)>>,
 {
-    type Item = Result<(u64, RgbImage)>;
+    type Item = Result<(u64, T)>;
 
     fn next(&mut self) -> Option<Self::Item> {
         if self.done {

@@ -33,7 +33,7 @@ use crate::run::report::{Report, Tally};
 use crate::run::segments::{self, file_text, Plan, Start};
 use crate::run::{Manifest, SegmentRecord};
 use crate::seed::Seeds;
-use crate::track::scale::WorkScale;
+use crate::track::scale::{Frame, WorkScale};
 use crate::track::{JointEstimate, TrackParams, Tracker};
 use image::RgbImage;
 use std::collections::VecDeque;
@@ -171,14 +171,19 @@ impl Session {
     /// A tracker built from `seeds` on `frame`, at the run's working resolution (its seed
     /// file's, whatever the rectangles of a corrected file: the run's trackers exchange states).
     fn tracker(&self, seeds: &Seeds, frame: &RgbImage) -> Tracker {
-        let work = WorkScale::for_seeds(&self.params, &self.base);
         Tracker::new_at(
             self.params.clone(),
             seeds,
             frame,
             self.background.clone(),
-            work,
+            self.work_scale(),
         )
+    }
+
+    /// The resolution the run's trackers work at (from its seed file): what a decode thread
+    /// makes each frame's working image at ([`WorkScale::frame`]).
+    pub fn work_scale(&self) -> WorkScale {
+        WorkScale::for_seeds(&self.params, &self.base)
     }
 
     /// A tracker built on the seed frame from segment 0's file.
@@ -235,38 +240,41 @@ impl Session {
     /// Tracks from segment `first_segment` (whose file must exist) to the end of the clip,
     /// checkpointing after every segment, then joins `tracks.csv`, writes `report.md` and marks
     /// the manifest complete. `frames` is the whole clip from frame 0.
-    pub fn run(
+    ///
+    /// Frames come as images, or as [`Frame`]s whose working image the decode thread has made
+    /// ([`WorkScale::frame`]); the rows are the same either way.
+    pub fn run<F: Into<Frame>>(
         &mut self,
-        frames: impl Iterator<Item = Result<(u64, RgbImage)>>,
+        frames: impl Iterator<Item = Result<(u64, F)>>,
         first_segment: u64,
         progress: &dyn Progress,
     ) -> Result<Finished> {
         let plan = self.plan();
         let mut frames = Frames {
-            inner: frames,
+            inner: frames.map(|item| item.map(|(i, f)| (i, f.into()))),
             progress,
             count: 0,
         };
         let start_frame = plan.first_frame(first_segment);
         // From segment 0, the frames before the seed frame are held, to be tracked backward
         // from it (at most `BEFORE_SEED_BYTES` of them: the latest).
-        let mut before: VecDeque<(u64, RgbImage)> = VecDeque::new();
+        let mut before: VecDeque<(u64, Frame)> = VecDeque::new();
         let mut before_bytes = 0usize;
         let mut cur = loop {
             match frames.next()? {
                 Some((idx, f)) => {
                     if idx == plan.seed_frame {
-                        self.seed_image = Some(f.clone());
+                        self.seed_image = Some((*f).clone());
                     }
                     if idx == start_frame {
                         break f;
                     }
                     if first_segment == 0 && idx < plan.seed_frame {
-                        before_bytes += f.as_raw().len();
+                        before_bytes += f.bytes();
                         before.push_back((idx, f));
                         while before_bytes > BEFORE_SEED_BYTES {
                             let (_, old) = before.pop_front().expect("over the limit");
-                            before_bytes -= old.as_raw().len();
+                            before_bytes -= old.bytes();
                         }
                     }
                 }
@@ -322,8 +330,8 @@ impl Session {
     /// `keys.toml` it passes. Their rows, in frame order.
     fn track_before_seed(
         &self,
-        seed: &RgbImage,
-        before: VecDeque<(u64, RgbImage)>,
+        seed: &Frame,
+        before: VecDeque<(u64, Frame)>,
         keys: &[Key],
     ) -> Result<Vec<(u64, Vec<JointEstimate>)>> {
         let start = self.start(0)?;

@@ -177,16 +177,44 @@ fn halve(raw: &[u8], w: usize, h: usize) -> image::RgbImage {
     let (w2, h2) = ((w / 2).max(1), (h / 2).max(1));
     let mut out = vec![0u8; w2 * h2 * 3];
     if w >= 2 && h >= 2 {
-        // Scratch rows: the row pair summed down, and each of those sums plus the next pixel's.
-        let scratch = || (vec![0u16; w * 3], vec![0u16; w * 3]);
         out.par_chunks_mut(w2 * 3)
             .enumerate()
             .with_min_len(16)
-            .for_each_init(scratch, |(down, across), (y, o)| {
-                halve_row(&raw[2 * y * w * 3..(2 * y + 2) * w * 3], down, across, o);
-            });
+            .for_each_init(
+                || halve_scratch(w),
+                |(down, across), (y, o)| {
+                    halve_row(&raw[2 * y * w * 3..(2 * y + 2) * w * 3], down, across, o);
+                },
+            );
     }
     image::RgbImage::from_raw(w2 as u32, h2 as u32, out).expect("buffer sized to the image")
+}
+
+/// [`halve`] on the calling thread alone, into `out` (emptied first): the same bytes, for a
+/// thread outside rayon's pool (the decode thread) that should not hand its work to the pool's
+/// threads.
+fn halve_here(raw: &[u8], w: usize, h: usize, mut out: Vec<u8>) -> image::RgbImage {
+    let (w2, h2) = ((w / 2).max(1), (h / 2).max(1));
+    out.clear();
+    out.resize(w2 * h2 * 3, 0);
+    if w >= 2 && h >= 2 {
+        let (mut down, mut across) = halve_scratch(w);
+        for (y, o) in out.chunks_mut(w2 * 3).enumerate() {
+            halve_row(
+                &raw[2 * y * w * 3..(2 * y + 2) * w * 3],
+                &mut down,
+                &mut across,
+                o,
+            );
+        }
+    }
+    image::RgbImage::from_raw(w2 as u32, h2 as u32, out).expect("buffer sized to the image")
+}
+
+/// Scratch rows for [`halve_row`] over rows `w` px wide: the row pair summed down, and each of
+/// those sums plus the next pixel's.
+fn halve_scratch(w: usize) -> (Vec<u16>, Vec<u16>) {
+    (vec![0u16; w * 3], vec![0u16; w * 3])
 }
 
 /// One output row of [`halve`] from the two input rows `rows`, through `down` and `across`
@@ -210,6 +238,16 @@ fn halve_row(rows: &[u8], down: &mut [u16], across: &mut [u16], o: &mut [u8]) {
 /// `img` halved: 2×2 blocks averaged (rounded), odd edges dropped.
 pub fn halve_image(img: &RgbImage) -> RgbImage {
     halve(img.as_raw(), img.width() as usize, img.height() as usize)
+}
+
+/// [`halve_image`] on the calling thread alone, written into `buf`'s memory (same bytes).
+pub fn halve_image_into(img: &RgbImage, buf: Vec<u8>) -> RgbImage {
+    halve_here(
+        img.as_raw(),
+        img.width() as usize,
+        img.height() as usize,
+        buf,
+    )
 }
 
 /// Every pyramid level of `img` as owned images, level 0 (a copy of `img`) first.
@@ -323,6 +361,11 @@ mod tests {
             assert_eq!(
                 (out.width() as usize, out.height() as usize),
                 (w / 2, h / 2)
+            );
+            assert_eq!(
+                out,
+                halve_here(&raw, w, h, vec![9; 5]),
+                "{w}x{h}: one thread, other bytes"
             );
             for y in 0..h / 2 {
                 for x in 0..w / 2 {

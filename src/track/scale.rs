@@ -10,9 +10,10 @@
 //! pixel `x_k` covering frame pixels `2^k·x_k … 2^k·x_k + 2^k − 1`, so a frame position `x` is
 //! `x_k = (x − (2^k − 1)/2) / 2^k` there (the convention of [`super::pixels::Pyramid`]).
 
-use super::pixels::halve_image;
+use super::pixels::{halve_image, halve_image_into};
 use super::TrackParams;
 use crate::background::Background;
+use crate::decode::Recycler;
 use crate::geom::Point;
 use crate::seed::Seeds;
 use image::RgbImage;
@@ -123,6 +124,92 @@ impl WorkScale {
     }
 }
 
+/// A decoded frame and, when the tracker works below full resolution, the same frame at the
+/// working resolution, made once by the thread that decodes it ([`WorkScale::frame`]) instead
+/// of by the tracker on each step. Reads as the frame itself (`Deref`).
+///
+/// A frame made with a [`Recycler`] hands its buffers back to it when dropped, for the decode
+/// thread to write later frames into.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    rgb: RgbImage,
+    work: Option<(WorkScale, RgbImage)>,
+    recycler: Option<Recycler>,
+}
+
+impl Frame {
+    /// `rgb` alone: its working image is made when asked for ([`Frame::at`]).
+    pub fn plain(rgb: RgbImage) -> Frame {
+        Frame {
+            rgb,
+            work: None,
+            recycler: None,
+        }
+    }
+
+    /// The frame at `work`'s resolution: the image made beforehand when it is at that scale,
+    /// else made now ([`WorkScale::image`]; the same bytes either way).
+    pub fn at(&self, work: WorkScale) -> Cow<'_, RgbImage> {
+        match &self.work {
+            Some((w, img)) if *w == work => Cow::Borrowed(img),
+            _ => work.image(&self.rgb),
+        }
+    }
+
+    /// Bytes held: the frame's and its working image's.
+    pub fn bytes(&self) -> usize {
+        self.rgb.as_raw().len() + self.work.as_ref().map_or(0, |(_, w)| w.as_raw().len())
+    }
+}
+
+impl From<RgbImage> for Frame {
+    fn from(rgb: RgbImage) -> Frame {
+        Frame::plain(rgb)
+    }
+}
+
+impl std::ops::Deref for Frame {
+    type Target = RgbImage;
+    fn deref(&self) -> &RgbImage {
+        &self.rgb
+    }
+}
+
+impl Drop for Frame {
+    fn drop(&mut self) {
+        if let Some(r) = &self.recycler {
+            r.give(std::mem::take(&mut self.rgb).into_raw());
+            if let Some((_, w)) = self.work.take() {
+                r.give(w.into_raw());
+            }
+        }
+    }
+}
+
+impl WorkScale {
+    /// `rgb` with, below full resolution, its image at this scale, halved on the calling
+    /// thread alone ([`halve_image_into`]: a decode thread keeps its work off rayon's pool).
+    /// With `recycler`, the working image is written into a buffer taken from it, and the
+    /// frame's buffers go back to it when the frame is dropped.
+    pub fn frame(self, rgb: RgbImage, recycler: Option<&Recycler>) -> Frame {
+        let buf = |len: usize| recycler.map_or_else(|| Vec::with_capacity(len), |r| r.take(len));
+        let mut work = None;
+        for _ in 0..self.halvings {
+            let from: &RgbImage = work.as_ref().unwrap_or(&rgb);
+            let len = (from.width() as usize / 2).max(1) * (from.height() as usize / 2).max(1) * 3;
+            let next = halve_image_into(from, buf(len));
+            if let (Some(r), Some(old)) = (recycler, work.replace(next)) {
+                r.give(old.into_raw());
+            }
+        }
+        Frame {
+            rgb,
+            work: work.map(|w| (self, w)),
+            recycler: recycler.cloned(),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -181,5 +268,36 @@ mod tests {
         assert_eq!(half.dimensions(), (4, 3));
         // Frame pixels 6 and 7 (60 and 70) average to 65 at working pixel 3.
         assert_eq!(half.get_pixel(3, 1)[0], 65);
+    }
+
+    #[test]
+    fn a_frame_made_beforehand_gives_the_working_image_the_tracker_would_make() {
+        let img = RgbImage::from_fn(37, 22, |x, y| {
+            image::Rgb([(x * 7) as u8, (y * 11) as u8, 3])
+        });
+        for halvings in 0..=MAX_HALVINGS {
+            let w = WorkScale { halvings };
+            let f = w.frame(img.clone(), None);
+            assert_eq!(*f.at(w), *w.image(&img), "{halvings} halvings");
+            assert_eq!(*f, img);
+            // Asked at another scale, it is made then, from the frame.
+            let other = WorkScale {
+                halvings: (halvings + 1) % (MAX_HALVINGS + 1),
+            };
+            assert_eq!(*f.at(other), *other.image(&img));
+        }
+        assert_eq!(Frame::plain(img.clone()).bytes(), 37 * 22 * 3);
+        assert_eq!(
+            WorkScale { halvings: 1 }.frame(img.clone(), None).bytes(),
+            37 * 22 * 3 + 18 * 11 * 3
+        );
+        // Made with a recycler: the same images, and their buffers go back to it when dropped.
+        let r = Recycler::new();
+        let w = WorkScale { halvings: 2 };
+        let f = w.frame(img.clone(), Some(&r));
+        assert_eq!(*f.at(w), *w.image(&img));
+        let at = f.at(w).as_raw().as_ptr();
+        drop(f);
+        assert_eq!(r.take(9 * 5 * 3).as_ptr(), at);
     }
 }

@@ -6,7 +6,7 @@ use super::model::Model;
 use super::motion::{Motion, Prediction};
 use super::pixels::{halve_all, Image, Level, Pyramid};
 use super::rooted::{self, AngleOf};
-use super::scale::WorkScale;
+use super::scale::{Frame, WorkScale};
 use super::strip::{Fit, Placement, Strip, View};
 use super::{JointEstimate, Status, TrackParams};
 use crate::background::Background;
@@ -282,6 +282,15 @@ impl Tracker {
     pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
         rayon::scope(|_| {
             let frame = self.work.image(frame);
+            self.step_in_pool(&frame)
+        })
+    }
+
+    /// [`Tracker::step`] on a decoded [`Frame`], whose working image may have been made
+    /// beforehand (by the decode thread).
+    pub fn step_frame(&mut self, frame: &Frame) -> Vec<JointEstimate> {
+        rayon::scope(|_| {
+            let frame = frame.at(self.work);
             self.step_in_pool(&frame)
         })
     }

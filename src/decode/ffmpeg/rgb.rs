@@ -11,6 +11,8 @@ pub(super) struct RgbConverter {
     /// The (padded) RGB frame the scaler writes when it cannot write the image directly, made
     /// on first use and reused.
     rgb: Option<ff::frame::Video>,
+    /// Where the images' buffers come from, when the consumer hands them back.
+    pub(super) recycler: Option<Recycler>,
 }
 
 /// Row lengths (bytes) that are a multiple of this are written by swscale straight into the
@@ -28,6 +30,7 @@ impl RgbConverter {
             height,
             scaler: None,
             rgb: None,
+            recycler: None,
         }
     }
 
@@ -77,7 +80,10 @@ impl RgbConverter {
         let scaler = self.scaler.as_mut().expect("scaler set above");
         let row = w as usize * 3;
         let len = row * h as usize;
-        let mut out: Vec<u8> = Vec::with_capacity(len + SLACK);
+        let mut out: Vec<u8> = match &self.recycler {
+            Some(r) => r.take(len + SLACK),
+            None => Vec::with_capacity(len + SLACK),
+        };
         // swscale's SIMD stores want 16-byte aligned rows; the allocator gives that in practice.
         if direct
             && row.is_multiple_of(DIRECT_ROW_MULTIPLE)

@@ -5,8 +5,8 @@ use super::Key;
 use crate::error::{Error, Result};
 use crate::geom::Point;
 use crate::progress::Progress;
+use crate::track::scale::Frame;
 use crate::track::{gapfill::GapFiller, JointEstimate, Tracker};
-use image::RgbImage;
 
 /// Where a segment tracker's appearance model is built.
 #[derive(Debug, Clone, Copy)]
@@ -76,8 +76,8 @@ impl Pass {
     }
 
     /// Tracks frame `idx`.
-    pub(super) fn step(&mut self, idx: u64, frame: &RgbImage) {
-        let est = self.tracker.step(frame);
+    pub(super) fn step(&mut self, idx: u64, frame: &Frame) {
+        let est = self.tracker.step_frame(frame);
         self.out.extend(self.filler.push(idx, est));
     }
 
@@ -105,8 +105,8 @@ pub(super) struct Frames<'p, I> {
     pub(super) count: u64,
 }
 
-impl<I: Iterator<Item = Result<(u64, RgbImage)>>> Frames<'_, I> {
-    pub(super) fn next(&mut self) -> Result<Option<(u64, RgbImage)>> {
+impl<I: Iterator<Item = Result<(u64, Frame)>>> Frames<'_, I> {
+    pub(super) fn next(&mut self) -> Result<Option<(u64, Frame)>> {
         match self.inner.next() {
             None => Ok(None),
             Some(item) => {

@@ -10,6 +10,7 @@ use crate::geom::Point;
 use crate::run::keyed;
 use crate::run::keys::Key;
 use crate::track::flow::GreyPyramid;
+use crate::track::scale::Frame;
 use crate::track::{JointEstimate, Status};
 use image::RgbImage;
 
@@ -20,15 +21,15 @@ impl Session {
     /// or the clip's last frame), the segment's frames are held and tracked backward from it
     /// too, and the passes blended ([`crate::run::blend`]).
     #[allow(clippy::type_complexity)]
-    pub(super) fn track_segment<I: Iterator<Item = Result<(u64, RgbImage)>>>(
+    pub(super) fn track_segment<I: Iterator<Item = Result<(u64, Frame)>>>(
         &mut self,
         k: u64,
-        first: &RgbImage,
+        first: &Frame,
         frames: &mut Frames<'_, I>,
         keys: &[Key],
     ) -> Result<(
         Vec<(u64, Vec<JointEstimate>)>,
-        Option<(Vec<JointEstimate>, RgbImage)>,
+        Option<(Vec<JointEstimate>, Frame)>,
     )> {
         let plan = self.plan();
         let next = plan.first_frame(k + 1);
@@ -101,8 +102,8 @@ impl Session {
         if let Some(key) = key_here {
             forward[0].move_to(key);
         }
-        let mut held: Vec<RgbImage> = Vec::new();
-        let mut boundary: Option<RgbImage> = None;
+        let mut held: Vec<Frame> = Vec::new();
+        let mut boundary: Option<Frame> = None;
         // Lucas–Kanade's pyramids of the frames held (and the first and the next key's), built
         // as they arrive, alongside the passes.
         let mut built = flow::Built::new(hold);
@@ -185,6 +186,7 @@ impl Session {
             let images: Vec<&RgbImage> = std::iter::once(first)
                 .chain(held.iter())
                 .chain(Some(bf))
+                .map(|f| &**f)
                 .collect();
             for appearance in [Appearance::Here, Appearance::SeedFrame] {
                 if matches!(appearance, Appearance::SeedFrame) && lean_enough(led_early) {
@@ -293,6 +295,7 @@ impl Session {
             let images: Vec<&RgbImage> = std::iter::once(first)
                 .chain(held.iter())
                 .chain(last)
+                .map(|f| &**f)
                 .collect();
             let mut track_pos: Vec<Vec<Point>> = out
                 .iter()
@@ -449,8 +452,8 @@ impl Session {
 fn run_over(
     mut passes: Vec<Pass>,
     first_frame: u64,
-    held: &[RgbImage],
-    last: Option<(u64, &RgbImage)>,
+    held: &[Frame],
+    last: Option<(u64, &Frame)>,
 ) -> Vec<Vec<(u64, Vec<JointEstimate>)>> {
     let frames = held
         .iter()
