@@ -5,6 +5,7 @@
 //! coordinates. A position whose 2×2 neighbourhood leaves the frame reads as `None`.
 
 use image::RgbImage;
+use std::borrow::Cow;
 
 /// An RGB colour or colour derivative, 0–255 per channel, as `f32`.
 pub type Rgb = [f32; 3];
@@ -167,7 +168,7 @@ fn block_read(
 /// full-resolution position `x` (px) is `x_k = (x − (2^k − 1)/2) / 2^k` there ([`Level`]).
 pub struct Pyramid<'a> {
     base: Image<'a>,
-    coarse: Vec<image::RgbImage>,
+    coarse: Cow<'a, [image::RgbImage]>,
 }
 
 /// Halves an RGB buffer `w × h` by averaging 2×2 blocks (odd edges dropped). Output rows are
@@ -250,6 +251,18 @@ pub fn halve_image_into(img: &RgbImage, buf: Vec<u8>) -> RgbImage {
     )
 }
 
+/// The levels of `img`'s pyramid of `levels` levels after the first: `img` halved, halved
+/// again, and so on (none for 1 level).
+pub fn coarse_levels(img: &RgbImage, levels: usize) -> Vec<RgbImage> {
+    let mut coarse: Vec<RgbImage> = Vec::with_capacity(levels.saturating_sub(1));
+    for _ in 1..levels.max(1) {
+        let prev = coarse.last().unwrap_or(img);
+        let next = halve(prev.as_raw(), prev.width() as usize, prev.height() as usize);
+        coarse.push(next);
+    }
+    coarse
+}
+
 /// Every pyramid level of `img` as owned images, level 0 (a copy of `img`) first.
 pub fn halve_all(img: &RgbImage, levels: usize) -> Vec<RgbImage> {
     let mut out = vec![img.clone()];
@@ -264,16 +277,19 @@ pub fn halve_all(img: &RgbImage, levels: usize) -> Vec<RgbImage> {
 impl<'a> Pyramid<'a> {
     /// The pyramid of `img` with `levels` levels (at least 1; level 0 is `img` itself).
     pub fn new(img: &'a RgbImage, levels: usize) -> Self {
-        let base = Image::new(img);
-        let mut coarse: Vec<image::RgbImage> = Vec::with_capacity(levels.saturating_sub(1));
-        for _ in 1..levels.max(1) {
-            let next = match coarse.last() {
-                None => halve(base.raw, base.w, base.h),
-                Some(prev) => halve(prev.as_raw(), prev.width() as usize, prev.height() as usize),
-            };
-            coarse.push(next);
+        Pyramid {
+            base: Image::new(img),
+            coarse: Cow::Owned(coarse_levels(img, levels)),
         }
-        Pyramid { base, coarse }
+    }
+
+    /// The pyramid of `img` over its levels below the first, `coarse`, made beforehand
+    /// ([`coarse_levels`]) and shared by every pass that steps over the frame.
+    pub fn over(img: &'a RgbImage, coarse: &'a [RgbImage]) -> Self {
+        Pyramid {
+            base: Image::new(img),
+            coarse: Cow::Borrowed(coarse),
+        }
     }
 
     /// Number of levels.

@@ -10,7 +10,7 @@
 //! pixel `x_k` covering frame pixels `2^k·x_k … 2^k·x_k + 2^k − 1`, so a frame position `x` is
 //! `x_k = (x − (2^k − 1)/2) / 2^k` there (the convention of [`super::pixels::Pyramid`]).
 
-use super::pixels::{halve_image, halve_image_into};
+use super::pixels::{coarse_levels, halve_image, halve_image_into};
 use super::TrackParams;
 use crate::background::Background;
 use crate::decode::Recycler;
@@ -18,6 +18,7 @@ use crate::geom::Point;
 use crate::seed::Seeds;
 use image::RgbImage;
 use std::borrow::Cow;
+use std::sync::OnceLock;
 
 /// Most halvings: a 4K frame (3840 px wide) to 960 px.
 pub const MAX_HALVINGS: u32 = 2;
@@ -134,6 +135,8 @@ impl WorkScale {
 pub struct Frame {
     rgb: RgbImage,
     work: Option<(WorkScale, RgbImage)>,
+    /// The working image's pyramid levels below the first, with the scale and depth asked.
+    coarse: OnceLock<(WorkScale, usize, Vec<RgbImage>)>,
     recycler: Option<Recycler>,
 }
 
@@ -143,8 +146,26 @@ impl Frame {
         Frame {
             rgb,
             work: None,
+            coarse: OnceLock::new(),
             recycler: None,
         }
+    }
+
+    /// The levels after the first of the pyramid of `levels` levels of the frame at `work`
+    /// ([`coarse_levels`]): made by the first pass that asks (the carried pass, the passes
+    /// from a key and back from a correction all step over the same frames) and shared by the
+    /// rest. `None` when the first asked at another scale or depth, or the working image was
+    /// not made beforehand: the caller makes its own.
+    pub fn coarse(&self, work: WorkScale, levels: usize) -> Option<&[RgbImage]> {
+        let img = match &self.work {
+            _ if work.halvings == 0 => &self.rgb,
+            Some((w, img)) if *w == work => img,
+            _ => return None,
+        };
+        let (w, l, c) = self
+            .coarse
+            .get_or_init(|| (work, levels, coarse_levels(img, levels)));
+        (*w == work && *l == levels).then_some(c.as_slice())
     }
 
     /// The frame at `work`'s resolution: the image made beforehand when it is at that scale,
@@ -205,6 +226,7 @@ impl WorkScale {
         Frame {
             rgb,
             work: work.map(|w| (self, w)),
+            coarse: OnceLock::new(),
             recycler: recycler.cloned(),
         }
     }

@@ -280,23 +280,34 @@ impl Tracker {
     /// sections then split work among the pool's threads directly, instead of each handing its
     /// work over from outside the pool and sleeping until it is done.
     pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
+        let levels = self.model.levels;
         rayon::scope(|_| {
             let frame = self.work.image(frame);
-            self.step_in_pool(&frame)
+            self.step_in_pool(&frame, || Pyramid::new(&frame, levels))
         })
     }
 
     /// [`Tracker::step`] on a decoded [`Frame`], whose working image may have been made
-    /// beforehand (by the decode thread).
+    /// beforehand (by the decode thread), and whose pyramid is made by the first pass that
+    /// steps over it and shared by the others ([`Frame::coarse`]).
     pub fn step_frame(&mut self, frame: &Frame) -> Vec<JointEstimate> {
+        let (levels, work) = (self.model.levels, self.work);
         rayon::scope(|_| {
-            let frame = frame.at(self.work);
-            self.step_in_pool(&frame)
+            let img = frame.at(work);
+            self.step_in_pool(&img, || match frame.coarse(work, levels) {
+                Some(coarse) => Pyramid::over(&img, coarse),
+                None => Pyramid::new(&img, levels),
+            })
         })
     }
 
-    /// [`Tracker::step`], on whatever thread calls it.
-    fn step_in_pool(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
+    /// [`Tracker::step`], on whatever thread calls it, with the frame's pyramid from
+    /// `pyramid`.
+    fn step_in_pool<'f>(
+        &mut self,
+        frame: &'f RgbImage,
+        pyramid: impl FnOnce() -> Pyramid<'f> + Send,
+    ) -> Vec<JointEstimate> {
         let mut clock = std::time::Instant::now();
         let mut lap = |t: &mut f64| {
             let now = std::time::Instant::now();
@@ -308,10 +319,7 @@ impl Tracker {
         let pred = self.predict();
         // The pyramid and the brightness gain, side by side.
         let background = self.background.as_ref();
-        let (pyr, gain) = rayon::join(
-            || Pyramid::new(frame, self.model.levels),
-            || background.map_or(1.0, |b| b.gain(frame)),
-        );
+        let (pyr, gain) = rayon::join(pyramid, || background.map_or(1.0, |b| b.gain(frame)));
         // The plate's levels are lent to the views while the strips learn.
         let plate = std::mem::take(&mut self.plate);
         let views = Self::views_at_gain(self.background.as_ref(), &plate, &pyr, gain);
