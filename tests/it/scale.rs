@@ -76,6 +76,37 @@ fn twice_the_pixels_tracked_halved_are_the_same_tracks() {
     assert_eq!(c.current(), b.current());
 }
 
+/// Frames made as the decode thread makes them (the working image halved beforehand) and shared
+/// by two trackers (the second borrows the pyramid the first made) give each tracker the same
+/// estimates, to the bit, as frames it halves itself.
+#[test]
+fn frames_made_beforehand_and_shared_track_as_plain_frames() {
+    use mocap2d::track::scale::Frame;
+    let clip = synth_clip(Scenario::Walk, 320, 180, 4, Some(30));
+    let seeds = parse_seeds(&clip.seeds_toml(), Path::new("joints.toml")).unwrap();
+    let params = TrackParams {
+        work_box_px: 5.0,
+        ..TrackParams::default()
+    };
+    let bg = Background::fit(&clip.frames.iter().step_by(4).cloned().collect::<Vec<_>>()).unwrap();
+    let make = || Tracker::new(params.clone(), &seeds, &clip.frames[0], Some(bg.clone()));
+    let (mut plain, mut first, mut second) = (make(), make(), make());
+    let work = plain.work_scale();
+    assert_eq!(work.halvings, 1);
+    let recycler = mocap2d::decode::Recycler::new();
+    for img in &clip.frames[1..] {
+        let frame: Frame = work.frame(img.clone(), Some(&recycler));
+        let want = plain.step(img);
+        assert_eq!(first.step_frame(&frame), want);
+        assert_eq!(second.step_frame(&frame), want);
+    }
+    assert_ne!(
+        plain.current()[0].pos,
+        seeds.joints[0].bbox.centre(),
+        "the body moved"
+    );
+}
+
 /// A run tracked halved goes through segments, a resume and a correction like any other: the
 /// state checkpointed at a segment restores to the same bytes, and a correction whose
 /// rectangles are twice the seed file's (sizes may change in a correction) still builds its
