@@ -234,7 +234,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
         src.recycle_from(recycler.clone());
         frames = 0;
         while let Some(f) = src.next_frame()? {
-            drop(work.frame(f, Some(&recycler)));
+            drop(work.frame(f, Some(&recycler), false));
             frames += 1;
         }
         Ok((frames, t.elapsed().as_secs_f64()))
@@ -323,7 +323,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
     let mut decoded = Vec::with_capacity(frames as usize);
     let mut src = decode::open(&clip, None)?;
     while let Some(f) = src.next_frame()? {
-        decoded.push(work.frame(f, None));
+        decoded.push(work.frame(f, None, spec.keys.is_some()));
     }
     let mut manifest = Manifest::read(&run_dir.join(RUN_TOML))?;
     manifest.complete = false;

@@ -92,7 +92,9 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
     let recycler = decode::Recycler::new();
     let mut source = source;
     source.recycle_from(recycler.clone());
-    let rx = decode::spawn_reader_with(source, 8, move |f| work.frame(f, Some(&recycler)));
+    // Resumed segments start on corrections or hold keys: Lucas–Kanade between them reads
+    // the frames at full resolution.
+    let rx = decode::spawn_reader_with(source, 8, move |f| work.frame(f, Some(&recycler), true));
     let result = session.run(rx.into_iter(), first, progress);
     progress.finish();
     let done = result?;

@@ -250,9 +250,15 @@ pub fn track_into(
         carried: None,
     };
     progress.start("track", info.frame_count_hint);
+    // The decode thread makes each frame's working image, and keeps the frame at full
+    // resolution too only where keys are (Lucas–Kanade between them reads it): a frame let go
+    // at once hands its buffer straight back for the next one.
+    let keep_full = crate::run::keys::path(&run_dir).exists();
     let recycler = decode::Recycler::new();
     source.recycle_from(recycler.clone());
-    let rx = decode::spawn_reader_with(source, 8, move |f| work.frame(f, Some(&recycler)));
+    let rx = decode::spawn_reader_with(source, 8, move |f| {
+        work.frame(f, Some(&recycler), keep_full)
+    });
     let mut decode_stop = None;
     let result = session.run(
         decode::salvage(rx.into_iter(), info.stated_frames, &mut decode_stop),

@@ -35,7 +35,6 @@ use crate::run::{Manifest, SegmentRecord};
 use crate::seed::Seeds;
 use crate::track::scale::{Frame, WorkScale};
 use crate::track::{JointEstimate, TrackParams, Tracker};
-use image::RgbImage;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 
@@ -59,7 +58,7 @@ pub struct Session {
     /// The manifest, rewritten at every checkpoint.
     pub manifest: Manifest,
     /// The seed frame, once decoded: the appearance of restarted segments is built on it.
-    pub seed_image: Option<RgbImage>,
+    pub seed_image: Option<Frame>,
     /// Angles (radians) of the last row written, as `tracks.csv` holds them: a corrected file
     /// counts turns from them.
     pub last_angles: Option<Vec<f32>>,
@@ -170,7 +169,7 @@ impl Session {
 
     /// A tracker built from `seeds` on `frame`, at the run's working resolution (its seed
     /// file's, whatever the rectangles of a corrected file: the run's trackers exchange states).
-    fn tracker(&self, seeds: &Seeds, frame: &RgbImage) -> Tracker {
+    fn tracker(&self, seeds: &Seeds, frame: &Frame) -> Tracker {
         Tracker::new_at(
             self.params.clone(),
             seeds,
@@ -198,7 +197,7 @@ impl Session {
 
     /// A tracker starting from `start` (a segment file) on its frame `frame`, with the
     /// appearance built there or on the seed frame (see the module docs).
-    fn tracker_at(&self, start: &Start, frame: &RgbImage, appearance: Appearance) -> Result<Pass> {
+    fn tracker_at(&self, start: &Start, frame: &Frame, appearance: Appearance) -> Result<Pass> {
         let t = match appearance {
             Appearance::Here => self.built_here(start, frame)?,
             Appearance::SeedFrame => {
@@ -229,7 +228,7 @@ impl Session {
 
     /// A tracker built on segment file `start`'s frame `frame` from its rectangles; off the seed
     /// frame, bones hidden there keep the seed frame's appearance.
-    fn built_here(&self, start: &Start, frame: &RgbImage) -> Result<Tracker> {
+    fn built_here(&self, start: &Start, frame: &Frame) -> Result<Tracker> {
         let mut t = self.tracker(&start.seeds, frame);
         if start.seeds.frame != self.plan().seed_frame {
             t.adopt_hidden_from(&self.seed_tracker()?, frame);
@@ -264,7 +263,7 @@ impl Session {
             match frames.next()? {
                 Some((idx, f)) => {
                     if idx == plan.seed_frame {
-                        self.seed_image = Some((*f).clone());
+                        self.seed_image = Some(f.clone());
                     }
                     if idx == start_frame {
                         break f;

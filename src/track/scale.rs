@@ -127,13 +127,15 @@ impl WorkScale {
 
 /// A decoded frame and, when the tracker works below full resolution, the same frame at the
 /// working resolution, made once by the thread that decodes it ([`WorkScale::frame`]) instead
-/// of by the tracker on each step. Reads as the frame itself (`Deref`).
+/// of by the tracker on each step. A run that never reads frames at full resolution (a plain
+/// `track` of a clip tracked halved) keeps only the working image.
 ///
 /// A frame made with a [`Recycler`] hands its buffers back to it when dropped, for the decode
 /// thread to write later frames into.
 #[derive(Debug, Clone)]
 pub struct Frame {
-    rgb: RgbImage,
+    /// The frame at its own resolution (`None`: dropped once the working image was made).
+    full: Option<RgbImage>,
     work: Option<(WorkScale, RgbImage)>,
     /// The working image's pyramid levels below the first, with the scale and depth asked.
     coarse: OnceLock<(WorkScale, usize, Vec<RgbImage>)>,
@@ -144,10 +146,30 @@ impl Frame {
     /// `rgb` alone: its working image is made when asked for ([`Frame::at`]).
     pub fn plain(rgb: RgbImage) -> Frame {
         Frame {
-            rgb,
+            full: Some(rgb),
             work: None,
             coarse: OnceLock::new(),
             recycler: None,
+        }
+    }
+
+    /// The frame at its own resolution.
+    ///
+    /// # Panics
+    /// On a frame made without it ([`WorkScale::frame`] with `keep_full` false): made so only
+    /// for runs that never ask.
+    pub fn full(&self) -> &RgbImage {
+        self.full
+            .as_ref()
+            .expect("a frame kept at its working resolution alone is read only there")
+    }
+
+    /// The frame at `work`'s resolution: the image made beforehand when it is at that scale,
+    /// else made now ([`WorkScale::image`]; the same bytes either way).
+    pub fn at(&self, work: WorkScale) -> Cow<'_, RgbImage> {
+        match &self.work {
+            Some((w, img)) if *w == work => Cow::Borrowed(img),
+            _ => work.image(self.full()),
         }
     }
 
@@ -157,9 +179,9 @@ impl Frame {
     /// rest. `None` when the first asked at another scale or depth, or the working image was
     /// not made beforehand: the caller makes its own.
     pub fn coarse(&self, work: WorkScale, levels: usize) -> Option<&[RgbImage]> {
-        let img = match &self.work {
-            _ if work.halvings == 0 => &self.rgb,
-            Some((w, img)) if *w == work => img,
+        let img = match (&self.work, &self.full) {
+            (Some((w, img)), _) if *w == work => img,
+            (_, Some(img)) if work.halvings == 0 => img,
             _ => return None,
         };
         let (w, l, c) = self
@@ -168,18 +190,10 @@ impl Frame {
         (*w == work && *l == levels).then_some(c.as_slice())
     }
 
-    /// The frame at `work`'s resolution: the image made beforehand when it is at that scale,
-    /// else made now ([`WorkScale::image`]; the same bytes either way).
-    pub fn at(&self, work: WorkScale) -> Cow<'_, RgbImage> {
-        match &self.work {
-            Some((w, img)) if *w == work => Cow::Borrowed(img),
-            _ => work.image(&self.rgb),
-        }
-    }
-
-    /// Bytes held: the frame's and its working image's.
+    /// Bytes held by its images (the pyramid's levels aside).
     pub fn bytes(&self) -> usize {
-        self.rgb.as_raw().len() + self.work.as_ref().map_or(0, |(_, w)| w.as_raw().len())
+        let len = |img: &RgbImage| img.as_raw().len();
+        self.full.as_ref().map_or(0, len) + self.work.as_ref().map_or(0, |(_, w)| len(w))
     }
 }
 
@@ -189,42 +203,79 @@ impl From<RgbImage> for Frame {
     }
 }
 
-impl std::ops::Deref for Frame {
-    type Target = RgbImage;
-    fn deref(&self) -> &RgbImage {
-        &self.rgb
-    }
-}
-
 impl Drop for Frame {
     fn drop(&mut self) {
         if let Some(r) = &self.recycler {
-            r.give(std::mem::take(&mut self.rgb).into_raw());
-            if let Some((_, w)) = self.work.take() {
-                r.give(w.into_raw());
+            for img in [self.full.take(), self.work.take().map(|(_, w)| w)]
+                .into_iter()
+                .flatten()
+            {
+                r.give(img.into_raw());
             }
         }
+    }
+}
+
+/// A frame the tracker reads at its working resolution: an image (halved when asked) or a
+/// decoded [`Frame`], whose working image may be made already and whose pyramid is shared.
+pub trait AtWork: Sync {
+    /// The frame at `work`'s resolution.
+    fn at_work(&self, work: WorkScale) -> Cow<'_, RgbImage>;
+
+    /// Its pyramid's levels after the first, when they are kept with the frame
+    /// ([`Frame::coarse`]); `None`: the caller makes them.
+    fn coarse_at(&self, work: WorkScale, levels: usize) -> Option<&[RgbImage]> {
+        let _ = (work, levels);
+        None
+    }
+}
+
+impl AtWork for RgbImage {
+    fn at_work(&self, work: WorkScale) -> Cow<'_, RgbImage> {
+        work.image(self)
+    }
+}
+
+impl AtWork for Frame {
+    fn at_work(&self, work: WorkScale) -> Cow<'_, RgbImage> {
+        self.at(work)
+    }
+
+    fn coarse_at(&self, work: WorkScale, levels: usize) -> Option<&[RgbImage]> {
+        self.coarse(work, levels)
     }
 }
 
 impl WorkScale {
     /// `rgb` with, below full resolution, its image at this scale, halved on the calling
     /// thread alone ([`halve_image_into`]: a decode thread keeps its work off rayon's pool).
-    /// With `recycler`, the working image is written into a buffer taken from it, and the
-    /// frame's buffers go back to it when the frame is dropped.
-    pub fn frame(self, rgb: RgbImage, recycler: Option<&Recycler>) -> Frame {
+    /// Without `keep_full`, the frame at full resolution is let go once its working image is
+    /// made (see [`Frame::full`]). With `recycler`, the working image is written into a buffer
+    /// taken from it, and the frame's buffers go back to it when they are let go.
+    pub fn frame(self, rgb: RgbImage, recycler: Option<&Recycler>, keep_full: bool) -> Frame {
         let buf = |len: usize| recycler.map_or_else(|| Vec::with_capacity(len), |r| r.take(len));
+        let give = |img: RgbImage| {
+            if let Some(r) = recycler {
+                r.give(img.into_raw());
+            }
+        };
         let mut work = None;
         for _ in 0..self.halvings {
             let from: &RgbImage = work.as_ref().unwrap_or(&rgb);
             let len = (from.width() as usize / 2).max(1) * (from.height() as usize / 2).max(1) * 3;
             let next = halve_image_into(from, buf(len));
-            if let (Some(r), Some(old)) = (recycler, work.replace(next)) {
-                r.give(old.into_raw());
+            if let Some(old) = work.replace(next) {
+                give(old);
             }
         }
+        let full = if keep_full || work.is_none() {
+            Some(rgb)
+        } else {
+            give(rgb);
+            None
+        };
         Frame {
-            rgb,
+            full,
             work: work.map(|w| (self, w)),
             coarse: OnceLock::new(),
             recycler: recycler.cloned(),
@@ -299,9 +350,9 @@ mod tests {
         });
         for halvings in 0..=MAX_HALVINGS {
             let w = WorkScale { halvings };
-            let f = w.frame(img.clone(), None);
+            let f = w.frame(img.clone(), None, true);
             assert_eq!(*f.at(w), *w.image(&img), "{halvings} halvings");
-            assert_eq!(*f, img);
+            assert_eq!(*f.full(), img);
             // Asked at another scale, it is made then, from the frame.
             let other = WorkScale {
                 halvings: (halvings + 1) % (MAX_HALVINGS + 1),
@@ -310,16 +361,29 @@ mod tests {
         }
         assert_eq!(Frame::plain(img.clone()).bytes(), 37 * 22 * 3);
         assert_eq!(
-            WorkScale { halvings: 1 }.frame(img.clone(), None).bytes(),
+            WorkScale { halvings: 1 }
+                .frame(img.clone(), None, true)
+                .bytes(),
             37 * 22 * 3 + 18 * 11 * 3
         );
         // Made with a recycler: the same images, and their buffers go back to it when dropped.
         let r = Recycler::new();
         let w = WorkScale { halvings: 2 };
-        let f = w.frame(img.clone(), Some(&r));
+        let f = w.frame(img.clone(), Some(&r), true);
         assert_eq!(*f.at(w), *w.image(&img));
         let at = f.at(w).as_raw().as_ptr();
         drop(f);
         assert_eq!(r.take(9 * 5 * 3).as_ptr(), at);
+        // Made without its full image: the working image alone, and the full image's buffer
+        // back with the recycler at once.
+        let full = img.clone();
+        let full_at = full.as_raw().as_ptr();
+        let f = w.frame(full, Some(&r), false);
+        assert_eq!(*f.at(w), *w.image(&img));
+        assert_eq!(f.bytes(), 9 * 5 * 3);
+        assert_eq!(r.take(37 * 22 * 3).as_ptr(), full_at);
+        // At full resolution the frame is its working image: kept whatever is asked.
+        let f = WorkScale::FULL.frame(img.clone(), None, false);
+        assert_eq!(*f.full(), img);
     }
 }

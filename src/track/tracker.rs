@@ -6,7 +6,7 @@ use super::model::Model;
 use super::motion::{Motion, Prediction};
 use super::pixels::{halve_all, Image, Level, Pyramid};
 use super::rooted::{self, AngleOf};
-use super::scale::{Frame, WorkScale};
+use super::scale::{AtWork, WorkScale};
 use super::strip::{Fit, Placement, Strip, View};
 use super::{JointEstimate, Status, TrackParams};
 use crate::background::Background;
@@ -100,7 +100,7 @@ impl Tracker {
     pub fn new(
         params: TrackParams,
         seeds: &Seeds,
-        seed_frame: &RgbImage,
+        seed_frame: &impl AtWork,
         background: Option<Background>,
     ) -> Self {
         let work = WorkScale::for_seeds(&params, seeds);
@@ -113,7 +113,7 @@ impl Tracker {
     pub fn new_at(
         params: TrackParams,
         seeds: &Seeds,
-        seed_frame: &RgbImage,
+        seed_frame: &impl AtWork,
         background: Option<Background>,
         work: WorkScale,
     ) -> Self {
@@ -123,7 +123,7 @@ impl Tracker {
         let mut seeds = work.seeds(seeds);
         seeds.skeleton = rooted::centred(&user);
         let seeds = &seeds;
-        let seed_frame: &RgbImage = &work.image(seed_frame);
+        let seed_frame: &RgbImage = &seed_frame.at_work(work);
         let background = background.map(|b| work.background(b));
         // The levels that count the frame's resolution stay where they are in the frame: the
         // halved frame is already the frame's level 1, and judging a quarter-resolution level
@@ -279,22 +279,15 @@ impl Tracker {
     /// The step runs on a thread of rayon's pool (the caller waits): its many small parallel
     /// sections then split work among the pool's threads directly, instead of each handing its
     /// work over from outside the pool and sleeping until it is done.
-    pub fn step(&mut self, frame: &RgbImage) -> Vec<JointEstimate> {
-        let levels = self.model.levels;
-        rayon::scope(|_| {
-            let frame = self.work.image(frame);
-            self.step_in_pool(&frame, || Pyramid::new(&frame, levels))
-        })
-    }
-
-    /// [`Tracker::step`] on a decoded [`Frame`], whose working image may have been made
-    /// beforehand (by the decode thread), and whose pyramid is made by the first pass that
-    /// steps over it and shared by the others ([`Frame::coarse`]).
-    pub fn step_frame(&mut self, frame: &Frame) -> Vec<JointEstimate> {
+    ///
+    /// `frame` is an image, or a decoded [`Frame`](super::scale::Frame) whose working image
+    /// may have been made beforehand (by the decode thread) and whose pyramid is made by the
+    /// first pass that steps over it and shared by the others.
+    pub fn step(&mut self, frame: &impl AtWork) -> Vec<JointEstimate> {
         let (levels, work) = (self.model.levels, self.work);
         rayon::scope(|_| {
-            let img = frame.at(work);
-            self.step_in_pool(&img, || match frame.coarse(work, levels) {
+            let img = frame.at_work(work);
+            self.step_in_pool(&img, || match frame.coarse_at(work, levels) {
                 Some(coarse) => Pyramid::over(&img, coarse),
                 None => Pyramid::new(&img, levels),
             })

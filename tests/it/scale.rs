@@ -95,10 +95,10 @@ fn frames_made_beforehand_and_shared_track_as_plain_frames() {
     assert_eq!(work.halvings, 1);
     let recycler = mocap2d::decode::Recycler::new();
     for img in &clip.frames[1..] {
-        let frame: Frame = work.frame(img.clone(), Some(&recycler));
+        let frame: Frame = work.frame(img.clone(), Some(&recycler), false);
         let want = plain.step(img);
-        assert_eq!(first.step_frame(&frame), want);
-        assert_eq!(second.step_frame(&frame), want);
+        assert_eq!(first.step(&frame), want);
+        assert_eq!(second.step(&frame), want);
     }
     assert_ne!(
         plain.current()[0].pos,

@@ -5,6 +5,7 @@
 use crate::geom::Point;
 use crate::run::keyed;
 use crate::track::flow::GreyPyramid;
+use crate::track::scale::Frame;
 use crate::track::{JointEstimate, Status};
 use image::RgbImage;
 use rayon::prelude::*;
@@ -51,13 +52,13 @@ impl Built {
         }
     }
 
-    /// Builds the next frame's pyramid.
-    pub(super) fn add(&mut self, frame: &RgbImage) {
+    /// Builds the next frame's pyramid (from the frame at full resolution).
+    pub(super) fn add(&mut self, frame: &Frame) {
         if let Some(p) = &mut self.pyramids {
             if p.len() == self.count {
                 p.push(GreyPyramid { levels: Vec::new() });
             }
-            p[self.count].rebuild(frame, KEYED_LEVELS);
+            p[self.count].rebuild(frame.full(), KEYED_LEVELS);
             self.count += 1;
         }
     }

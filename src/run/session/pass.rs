@@ -77,7 +77,7 @@ impl Pass {
 
     /// Tracks frame `idx`.
     pub(super) fn step(&mut self, idx: u64, frame: &Frame) {
-        let est = self.tracker.step_frame(frame);
+        let est = self.tracker.step(frame);
         self.out.extend(self.filler.push(idx, est));
     }
 

@@ -186,7 +186,7 @@ impl Session {
             let images: Vec<&RgbImage> = std::iter::once(first)
                 .chain(held.iter())
                 .chain(Some(bf))
-                .map(|f| &**f)
+                .map(|f| f.full())
                 .collect();
             for appearance in [Appearance::Here, Appearance::SeedFrame] {
                 if matches!(appearance, Appearance::SeedFrame) && lean_enough(led_early) {
@@ -295,7 +295,7 @@ impl Session {
             let images: Vec<&RgbImage> = std::iter::once(first)
                 .chain(held.iter())
                 .chain(last)
-                .map(|f| &**f)
+                .map(|f| f.full())
                 .collect();
             let mut track_pos: Vec<Vec<Point>> = out
                 .iter()

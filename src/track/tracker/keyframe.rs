@@ -3,11 +3,11 @@
 
 use super::super::motion::Motion;
 use super::super::pixels::Pyramid;
+use super::super::scale::AtWork;
 use super::super::strip::Fit;
 use super::super::{JointEstimate, Status};
 use super::{Tracker, HIDDEN_AT_KEYFRAME};
 use crate::geom::{direction, unwrap_angle, Point};
-use image::RgbImage;
 
 impl Tracker {
     /// Restarts tracking from `centres` (px, one per joint in seed-file order) as if they were
@@ -67,9 +67,9 @@ impl Tracker {
 
     /// Diagnostics: how the strip of the bone ending at joint `child` fits `frame` (on the
     /// judging level) with its parent at `p` and the child at `c`.
-    pub fn fit_bone(&self, frame: &RgbImage, child: usize, p: Point, c: Point) -> Option<Fit> {
+    pub fn fit_bone(&self, frame: &impl AtWork, child: usize, p: Point, c: Point) -> Option<Fit> {
         let s = &self.model.strips[self.model.strip_of[child]?];
-        let frame = &self.work.image(frame);
+        let frame = &frame.at_work(self.work);
         let (p, c) = (self.work.to_work(p), self.work.to_work(c));
         let pyr = Pyramid::new(frame, self.model.levels);
         let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
@@ -83,12 +83,12 @@ impl Tracker {
     /// Returns the joints whose bones did. A bone counts as found when at least
     /// [`HIDDEN_AT_KEYFRAME`] of its samples fit, overall or at its child end.
     /// Both trackers must work at one resolution (nothing is adopted otherwise).
-    pub fn adopt_hidden_from(&mut self, seed: &Tracker, frame: &RgbImage) -> Vec<usize> {
+    pub fn adopt_hidden_from(&mut self, seed: &Tracker, frame: &impl AtWork) -> Vec<usize> {
         if seed.work != self.work {
             debug_assert!(false, "trackers at two working resolutions");
             return Vec::new();
         }
-        let frame = &self.work.image(frame);
+        let frame = &frame.at_work(self.work);
         let pyr = Pyramid::new(frame, seed.model.levels);
         let views = Self::views(seed.background.as_ref(), &seed.plate, &pyr, frame);
         let v = &views[seed.params.judge_level.min(views.len() - 1)];
@@ -118,12 +118,12 @@ impl Tracker {
     /// returns are in that frame's pixels) of the bone ending at joint `child`.
     pub fn probe_bone(
         &self,
-        frame: &RgbImage,
+        frame: &impl AtWork,
         child: usize,
         p: Point,
         c: Point,
     ) -> Vec<(f32, f32, f32, f32)> {
-        let frame = &self.work.image(frame);
+        let frame = &frame.at_work(self.work);
         let (p, c) = (self.work.to_work(p), self.work.to_work(c));
         let pyr = Pyramid::new(frame, 1);
         let views = Self::views(self.background.as_ref(), &self.plate, &pyr, frame);
