@@ -1,7 +1,8 @@
 //! Development diagnostics on a real clip folder (clip.mp4, joints.toml, gt.csv): tracks it as
 //! `track` would (the median plate with the seeds, default parameters, one tracker, no
 //! segments) and prints, for the frames `FROM..=TO` and the joints named, each stage's error
-//! against the labels (prediction, search, refinement, final) and the joint's evidence.
+//! against the labels (prediction, search, refinement, final) and the joint's evidence; then
+//! the tracker's time a frame by stage.
 //!
 //!     cargo run --release --example diag_real -- DIR FROM TO JOINT[,JOINT...]
 use mocap2d::background::BackgroundChoice;
@@ -80,5 +81,16 @@ fn main() -> anyhow::Result<()> {
         }
         println!("{line}");
     }
+    let tm = t.timings();
+    let ms = |s: f64| 1000.0 * s / tm.frames.max(1) as f64;
+    println!(
+        "ms/frame: pyramid {:.2} search {:.2} refine {:.2} judge {:.2} reacquire {:.2} learn {:.2}",
+        ms(tm.pyramid),
+        ms(tm.search),
+        ms(tm.refine),
+        ms(tm.judge),
+        ms(tm.reacquire),
+        ms(tm.learn)
+    );
     Ok(())
 }
