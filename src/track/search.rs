@@ -105,31 +105,47 @@ fn grid_min_in_runs(
         let k = if extra == 0 { 1 } else { KEEP };
         lowest_k(&points, &order, runs, &f, first, k)
     };
-    let mut result: Option<([f32; 2], f32)> = None;
-    for start in starts {
+    // The 3×3 neighbourhood of a point, its centre left out, in row order; the edges before
+    // the corners.
+    const RING: [(i32, i32); 8] = [
+        (-1, -1),
+        (-1, 0),
+        (-1, 1),
+        (0, -1),
+        (0, 1),
+        (1, -1),
+        (1, 0),
+        (1, 1),
+    ];
+    const RING_ORDER: [u32; 8] = [1, 3, 4, 6, 0, 2, 5, 7];
+    let pass_runs = runs.min(PASS_RUNS);
+    let refine = |start: ([f32; 2], f32)| {
         let mut best = start;
         let mut step = w.step;
         for _ in 0..2 + extra {
             step = [step[0] * 0.5, step[1] * 0.5];
             let centre = best.0;
-            points.clear();
-            near.clear();
-            for a in -1..=1 {
-                for b in -1..=1 {
-                    if a == 0 && b == 0 {
-                        continue;
-                    }
-                    points.push([
-                        centre[0] + a as f32 * step[0],
-                        centre[1] + b as f32 * step[1],
-                    ]);
-                    near.push(a * a + b * b);
-                }
-            }
+            let points = RING.map(|(a, b)| {
+                [
+                    centre[0] + a as f32 * step[0],
+                    centre[1] + b as f32 * step[1],
+                ]
+            });
             if !best.1.is_nan() {
-                best = lowest_k(&points, &nearest_first(&near), 1, &f, best, 1)[0];
+                best = lowest_k(&points, &RING_ORDER, pass_runs, &f, best, 1)[0];
             }
         }
+        best
+    };
+    // The best points' refinements do not depend on one another: side by side, then compared
+    // in order.
+    let refined: Vec<([f32; 2], f32)> = if runs > 1 && starts.len() > 1 {
+        starts.into_par_iter().map(refine).collect()
+    } else {
+        starts.into_iter().map(refine).collect()
+    };
+    let mut result: Option<([f32; 2], f32)> = None;
+    for best in refined {
         if result.is_none_or(|r| best.1 < r.1) {
             result = Some(best);
         }
@@ -297,6 +313,9 @@ pub const KEEP: usize = 4;
 /// How many runs the coarse grid of [`grid_min_bounded`] is cut into: enough to keep two cores
 /// busy, few enough that most points are judged against a good best point.
 const RUNS: usize = 4;
+
+/// How many runs each refinement pass's eight points are cut into.
+const PASS_RUNS: usize = 2;
 
 #[cfg(test)]
 mod tests {
