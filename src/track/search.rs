@@ -156,8 +156,21 @@ fn grid_min_in_runs(
 /// The indices of points `0..near.len()` by `near` (a squared distance from the centre),
 /// ties in order.
 fn nearest_first(near: &[i32]) -> Vec<u32> {
-    let mut order: Vec<u32> = (0..near.len() as u32).collect();
-    order.sort_by_key(|&i| near[i as usize]);
+    // A counting sort: the distances are small integers (at most 2·MAX_STEPS²).
+    let top = near.iter().copied().max().unwrap_or(0).max(0) as usize;
+    let mut at = vec![0u32; top + 2];
+    for &d in near {
+        at[d.max(0) as usize + 1] += 1;
+    }
+    for i in 1..at.len() {
+        at[i] += at[i - 1];
+    }
+    let mut order = vec![0u32; near.len()];
+    for (i, &d) in near.iter().enumerate() {
+        let slot = &mut at[d.max(0) as usize];
+        order[*slot as usize] = i as u32;
+        *slot += 1;
+    }
     order
 }
 
@@ -531,5 +544,14 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn nearest_first_is_a_stable_sort_by_distance() {
+        let near: Vec<i32> = (0..500).map(|i| (i * 37 % 101) % 13).collect();
+        let mut sorted: Vec<u32> = (0..near.len() as u32).collect();
+        sorted.sort_by_key(|&i| near[i as usize]);
+        assert_eq!(nearest_first(&near), sorted);
+        assert!(nearest_first(&[]).is_empty());
     }
 }
