@@ -310,7 +310,7 @@ impl Tracker {
     pub(super) fn fits(&self, v: &View, x: &[Point]) -> Vec<Fit> {
         let strips = &self.model.strips;
         strips
-            .iter()
+            .par_iter()
             .map(|s| s.fit(v, x[s.parent], x[s.child]))
             .collect()
     }

@@ -19,6 +19,7 @@ use super::search::{grid_min_bounded, Window};
 use super::strip::View;
 use super::Tracker;
 use crate::geom::{Point, Vector};
+use rayon::prelude::*;
 
 impl Tracker {
     /// Looks for every body whose root has been unseen for
@@ -66,24 +67,42 @@ impl Tracker {
             // Each rigid candidate is then tracked into place as a frame would be, and the
             // one whose body fits best is taken, if its root fits as on a frame where it is
             // seen and the body fits better than where it is now.
-            let mut best: Option<(f32, Vec<Point>, bool)> = None;
-            for (placed, flip) in self.redetect_candidates(coarse, r, x, evidence) {
-                self.flip_strips(&body, flip);
-                let mut trial = x.to_vec();
-                for (&k, &q) in body.iter().zip(&placed) {
-                    trial[k] = q;
+            let candidates = self.redetect_candidates(coarse, r, x, evidence);
+            // Each candidate tracked into place: its evidence and joints. Those laid as they
+            // are, side by side, then those mirrored (the body's strips turned over meanwhile).
+            let mut tracked: Vec<Option<(Vec<f32>, Vec<Point>)>> = vec![None; candidates.len()];
+            for turned in [false, true] {
+                self.flip_strips(&body, turned);
+                let this = &*self;
+                let done: Vec<(usize, (Vec<f32>, Vec<Point>))> = candidates
+                    .par_iter()
+                    .enumerate()
+                    .filter(|(_, (_, flip))| *flip == turned)
+                    .map(|(i, (placed, _))| {
+                        let mut trial = x.to_vec();
+                        for (&k, &q) in body.iter().zip(placed) {
+                            trial[k] = q;
+                        }
+                        let pred = this.wide_prediction(&trial, coarse.img.scale);
+                        let mut y = this.search(views, &pred);
+                        this.refine(views, &pred, &mut y);
+                        (i, (this.evidence(&this.fits(judge, &y)), y))
+                    })
+                    .collect();
+                self.flip_strips(&body, turned);
+                for (i, t) in done {
+                    tracked[i] = Some(t);
                 }
-                let pred = self.wide_prediction(&trial, coarse.img.scale);
-                let mut y = self.search(views, &pred);
-                self.refine(views, &pred, &mut y);
-                let ev = self.evidence(&self.fits(judge, &y));
-                self.flip_strips(&body, flip);
+            }
+            let mut best: Option<(f32, Vec<Point>, bool)> = None;
+            for ((_, flip), t) in candidates.iter().zip(tracked) {
+                let (ev, y) = t.expect("every candidate tracked");
                 if ev[r] < p.redetect_share || self.on_another_body(r, y[r], x, evidence) {
                     continue;
                 }
                 let fit = body_fit(&ev);
                 if fit > now && best.as_ref().is_none_or(|b| fit > b.0) {
-                    best = Some((fit, body.iter().map(|&k| y[k]).collect(), flip));
+                    best = Some((fit, body.iter().map(|&k| y[k]).collect(), *flip));
                 }
             }
             if let Some((_, placed, flip)) = best {
@@ -124,9 +143,14 @@ impl Tracker {
             half: [0.5 * self.frame_max.x, 0.5 * self.frame_max.y],
             step: [step, step],
         };
-        let mut out = Vec::new();
-        for pose in [x, &self.seed_pos[..]] {
-            for flip in [false, true] {
+        // The four searches are independent: side by side, kept in this order.
+        let tries: Vec<(&[Point], bool)> = [x, &self.seed_pos[..]]
+            .into_iter()
+            .flat_map(|pose| [(pose, false), (pose, true)])
+            .collect();
+        tries
+            .par_iter()
+            .map(|&(pose, flip)| {
                 // The body relative to its root, mirrored left to right when `flip`.
                 let rel: Vec<Vector> = body
                     .iter()
@@ -157,10 +181,9 @@ impl Tracker {
                 };
                 let (q, _) = grid_min_bounded(&w, cost);
                 let at = Point::new(q[0], q[1]);
-                out.push((rel.iter().map(|&d| at + d).collect(), flip));
-            }
-        }
-        out
+                (rel.iter().map(|&d| at + d).collect(), flip)
+            })
+            .collect()
     }
 
     /// Predictions centred on `x` with windows wide enough to pull a rigidly placed body onto

@@ -3,6 +3,8 @@
 //! parameters, then two finer passes around the best cell.
 
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
 /// A two-parameter window: centre, half-width and coarse grid step per parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,16 +27,15 @@ pub fn grid_min(w: &Window, f: impl Fn([f32; 2]) -> f32 + Sync) -> ([f32; 2], f3
 /// [`grid_min`] for a cost that may give up early: `f(q, limit)` must return the cost of `q`
 /// exactly when it is below `limit`, and otherwise any value at least `limit` (such a point
 /// cannot be the first minimum, so the result is [`grid_min`]'s to the bit). The coarse grid
-/// is cut into a few runs of points evaluated in parallel, each against the best point before
-/// it in its run (or the centre); the runs are compared in order, so the result does not
-/// depend on the threads.
+/// is dealt out to a few runs evaluated in parallel, nearest the centre first, each point
+/// judged against the best point found so far by any run (a tie going to the point first row by
+/// row), so the result does not depend on the threads.
 pub fn grid_min_bounded(w: &Window, f: impl Fn([f32; 2], f32) -> f32 + Sync) -> ([f32; 2], f32) {
     grid_min_in_runs(w, RUNS, f)
 }
 
 /// [`grid_min_bounded`] on the calling thread alone, for a caller that runs several searches
-/// side by side: one run, so every point is judged against the best point before it (fewer
-/// evaluated to the end), and no thread is woken. The same result to the bit.
+/// side by side: one run, and no thread is woken. The same result to the bit.
 pub fn grid_min_bounded_serial(
     w: &Window,
     f: impl Fn([f32; 2], f32) -> f32 + Sync,
@@ -43,6 +44,11 @@ pub fn grid_min_bounded_serial(
 }
 
 /// [`grid_min_bounded`] with the coarse grid cut into `runs` runs (1: all on this thread).
+///
+/// The points are evaluated nearest the centre first (where the best point usually is), each
+/// judged against the best point found so far by any run, so most give up early; the first
+/// minimum in the row-by-row order is still the one returned: a point ranked before the best so
+/// far wins a tie (see [`Key`]).
 fn grid_min_in_runs(
     w: &Window,
     runs: usize,
@@ -70,6 +76,7 @@ fn grid_min_in_runs(
         }
     });
     let mut points = Vec::with_capacity(((2 * n[0] + 1) * (2 * n[1] + 1)) as usize);
+    let mut near = Vec::with_capacity(points.capacity());
     for a in -n[0]..=n[0] {
         for b in -n[1]..=n[1] {
             if a == 0 && b == 0 {
@@ -79,39 +86,66 @@ fn grid_min_in_runs(
                 w.centre[0] + a as f32 * w.step[0],
                 w.centre[1] + b as f32 * w.step[1],
             ]);
+            near.push(a * a + b * b);
         }
     }
     let first = (w.centre, f(w.centre, f32::INFINITY));
     // A full grid keeps its best point; a coarsened one keeps its `KEEP` best, each refined,
     // so that a narrow valley between two coarse points is not lost to a broad one.
-    let starts = if extra == 0 {
-        let mut best = first;
-        lowest(&points, runs, &f, &mut best);
-        vec![best]
+    let starts = if first.1.is_nan() {
+        // Nothing compares below a centre that costs NaN, the rule `lowest_k_in_order`'s runs
+        // follow as they meet it: kept as it was.
+        if extra == 0 {
+            vec![first]
+        } else {
+            lowest_k_in_order(&points, runs, &f, first, KEEP)
+        }
     } else {
-        lowest_k(&points, runs, &f, first, KEEP)
+        let order = nearest_first(&near);
+        let k = if extra == 0 { 1 } else { KEEP };
+        lowest_k(&points, &order, runs, &f, first, k)
     };
-    let mut result: Option<([f32; 2], f32)> = None;
-    for start in starts {
+    // The 3×3 neighbourhood of a point, its centre left out, in row order; the edges before
+    // the corners.
+    const RING: [(i32, i32); 8] = [
+        (-1, -1),
+        (-1, 0),
+        (-1, 1),
+        (0, -1),
+        (0, 1),
+        (1, -1),
+        (1, 0),
+        (1, 1),
+    ];
+    const RING_ORDER: [u32; 8] = [1, 3, 4, 6, 0, 2, 5, 7];
+    let pass_runs = runs.min(PASS_RUNS);
+    let refine = |start: ([f32; 2], f32)| {
         let mut best = start;
         let mut step = w.step;
         for _ in 0..2 + extra {
             step = [step[0] * 0.5, step[1] * 0.5];
             let centre = best.0;
-            points.clear();
-            for a in -1..=1 {
-                for b in -1..=1 {
-                    if a == 0 && b == 0 {
-                        continue;
-                    }
-                    points.push([
-                        centre[0] + a as f32 * step[0],
-                        centre[1] + b as f32 * step[1],
-                    ]);
-                }
+            let points = RING.map(|(a, b)| {
+                [
+                    centre[0] + a as f32 * step[0],
+                    centre[1] + b as f32 * step[1],
+                ]
+            });
+            if !best.1.is_nan() {
+                best = lowest_k(&points, &RING_ORDER, pass_runs, &f, best, 1)[0];
             }
-            lowest(&points, 1, &f, &mut best);
         }
+        best
+    };
+    // The best points' refinements do not depend on one another: side by side, then compared
+    // in order.
+    let refined: Vec<([f32; 2], f32)> = if runs > 1 && starts.len() > 1 {
+        starts.into_par_iter().map(refine).collect()
+    } else {
+        starts.into_iter().map(refine).collect()
+    };
+    let mut result: Option<([f32; 2], f32)> = None;
+    for best in refined {
         if result.is_none_or(|r| best.1 < r.1) {
             result = Some(best);
         }
@@ -119,9 +153,127 @@ fn grid_min_in_runs(
     result.expect("at least the centre")
 }
 
-/// The `k` lowest of `first` and `points` (lowest first; ties in order), the points cut into
-/// `runs` runs evaluated in parallel, each judged against its run's `k`-th best so far.
+/// The indices of points `0..near.len()` by `near` (a squared distance from the centre),
+/// ties in order.
+fn nearest_first(near: &[i32]) -> Vec<u32> {
+    // A counting sort: the distances are small integers (at most 2·MAX_STEPS²).
+    let top = near.iter().copied().max().unwrap_or(0).max(0) as usize;
+    let mut at = vec![0u32; top + 2];
+    for &d in near {
+        at[d.max(0) as usize + 1] += 1;
+    }
+    for i in 1..at.len() {
+        at[i] += at[i - 1];
+    }
+    let mut order = vec![0u32; near.len()];
+    for (i, &d) in near.iter().enumerate() {
+        let slot = &mut at[d.max(0) as usize];
+        order[*slot as usize] = i as u32;
+        *slot += 1;
+    }
+    order
+}
+
+/// A point's cost and rank as one integer, ordered as the first minimum is chosen: by cost
+/// (as [`f32::total_cmp`] orders it), then by rank (0 for the point to beat, `i + 1` for
+/// `points[i]`, so the grid row by row).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+struct Key(u64);
+
+impl Key {
+    fn new(cost: f32, rank: u32) -> Self {
+        let b = cost.to_bits();
+        let ordered = if b >> 31 == 1 { !b } else { b | 1 << 31 };
+        Key(((ordered as u64) << 32) | rank as u64)
+    }
+
+    fn cost(self) -> f32 {
+        let o = (self.0 >> 32) as u32;
+        f32::from_bits(if o >> 31 == 1 { o & !(1 << 31) } else { !o })
+    }
+
+    fn rank(self) -> u32 {
+        self.0 as u32
+    }
+
+    /// The limit below which the cost of a point of rank `rank` beats this one: its cost, or
+    /// the next float up for a point ranked before it (a tie goes to the first).
+    fn limit(self, rank: u32) -> f32 {
+        let c = self.cost();
+        if rank < self.rank() {
+            c.next_up()
+        } else {
+            c
+        }
+    }
+}
+
+/// The `k` lowest of `first` and `points` (lowest first; ties in order; a point other than
+/// `first` only when it costs less than infinity), `first` not NaN. The points are evaluated in
+/// `order` dealt out to `runs` runs in turn (the runs in parallel), each judged against the
+/// `k`-th best found so far by all runs.
 fn lowest_k(
+    points: &[[f32; 2]],
+    order: &[u32],
+    runs: usize,
+    f: &(impl Fn([f32; 2], f32) -> f32 + Sync),
+    first: ([f32; 2], f32),
+    k: usize,
+) -> Vec<([f32; 2], f32)> {
+    let k = k.max(1);
+    let runs = runs.max(1);
+    // The best keys so far, and the `k`-th of them to beat (`u64::MAX` while there are fewer):
+    // read without the lock, so a run may judge against a bound a little out of date (a higher
+    // one: more work, the same result).
+    let kept = Mutex::new(vec![Key::new(first.1, 0)]);
+    let full = |kept: &[Key]| {
+        if kept.len() < k {
+            u64::MAX
+        } else {
+            kept[k - 1].0
+        }
+    };
+    let bound = AtomicU64::new(full(&kept.lock().unwrap()));
+    let run = |r: usize| {
+        for &i in order.iter().skip(r).step_by(runs) {
+            let rank = i + 1;
+            let b = bound.load(Ordering::Relaxed);
+            let lim = if b == u64::MAX {
+                f32::INFINITY
+            } else {
+                Key(b).limit(rank)
+            };
+            let c = f(points[i as usize], lim);
+            if c < lim {
+                let key = Key::new(c, rank);
+                let mut kept = kept.lock().unwrap();
+                if kept.len() < k || key < kept[k - 1] {
+                    let at = kept.partition_point(|&e| e < key);
+                    kept.insert(at, key);
+                    kept.truncate(k);
+                    bound.store(full(&kept), Ordering::Relaxed);
+                }
+            }
+        }
+    };
+    if runs > 1 {
+        (0..runs).into_par_iter().for_each(run);
+    } else {
+        run(0);
+    }
+    let kept = kept.into_inner().unwrap();
+    kept.into_iter()
+        .map(|key| match key.rank() {
+            0 => first,
+            r => (points[r as usize - 1], key.cost()),
+        })
+        .collect()
+}
+
+/// The `k` lowest of `first` and `points` (lowest first; ties in order), the points cut into
+/// `runs` runs evaluated in parallel in order, each judged against its run's `k`-th best so
+/// far: [`lowest_k`] for a `first` that costs NaN.
+fn lowest_k_in_order(
     points: &[[f32; 2]],
     runs: usize,
     f: &(impl Fn([f32; 2], f32) -> f32 + Sync),
@@ -175,41 +327,8 @@ pub const KEEP: usize = 4;
 /// busy, few enough that most points are judged against a good best point.
 const RUNS: usize = 4;
 
-/// Replaces `best` by the first of `points` that costs less, in order: `points` cut into `runs`
-/// runs evaluated in parallel (see [`grid_min_bounded`]).
-fn lowest(
-    points: &[[f32; 2]],
-    runs: usize,
-    f: &(impl Fn([f32; 2], f32) -> f32 + Sync),
-    best: &mut ([f32; 2], f32),
-) {
-    if points.is_empty() {
-        return;
-    }
-    let limit = best.1;
-    let run = |chunk: &[[f32; 2]]| {
-        let mut found: Option<([f32; 2], f32)> = None;
-        for &q in chunk {
-            let lim = found.map_or(limit, |b| b.1);
-            let c = f(q, lim);
-            if c < lim {
-                found = Some((q, c));
-            }
-        }
-        found
-    };
-    let size = points.len().div_ceil(runs.max(1));
-    let found: Vec<Option<([f32; 2], f32)>> = if runs > 1 {
-        points.par_chunks(size).map(run).collect()
-    } else {
-        vec![run(points)]
-    };
-    for (q, c) in found.into_iter().flatten() {
-        if c < best.1 {
-            *best = (q, c);
-        }
-    }
-}
+/// How many runs each refinement pass's eight points are cut into.
+const PASS_RUNS: usize = 2;
 
 #[cfg(test)]
 mod tests {
@@ -390,5 +509,49 @@ mod tests {
         assert_eq!(calls.into_inner(), 1 + 8 + 8);
         assert_eq!(q, [0.25, 0.25]);
         assert_eq!(c, 0.5);
+    }
+
+    #[test]
+    fn the_best_points_found_nearest_first_are_those_found_in_order() {
+        // Costs with many ties (the centre's among them), so which of equal points is kept
+        // matters.
+        let f = |q: [f32; 2]| ((q[0] * 0.37).sin() + (q[1] * 0.21).cos() + 2.0).floor() * 0.5;
+        let bounded = |q: [f32; 2], limit: f32| {
+            let c = f(q);
+            if c >= limit {
+                limit + 1.0
+            } else {
+                c
+            }
+        };
+        let (mut points, mut near) = (Vec::new(), Vec::new());
+        for a in -16..=16 {
+            for b in -16..=16 {
+                if a != 0 || b != 0 {
+                    points.push([a as f32 * 1.5, b as f32 * 0.5]);
+                    near.push(a * a + b * b);
+                }
+            }
+        }
+        let first = ([0.0, 0.0], f([0.0, 0.0]));
+        let order = nearest_first(&near);
+        for k in [1, 4] {
+            let in_order = lowest_k_in_order(&points, 1, &bounded, first, k);
+            for runs in [1, 4] {
+                assert_eq!(
+                    lowest_k(&points, &order, runs, &bounded, first, k),
+                    in_order
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn nearest_first_is_a_stable_sort_by_distance() {
+        let near: Vec<i32> = (0..500).map(|i| (i * 37 % 101) % 13).collect();
+        let mut sorted: Vec<u32> = (0..near.len() as u32).collect();
+        sorted.sort_by_key(|&i| near[i as usize]);
+        assert_eq!(nearest_first(&near), sorted);
+        assert!(nearest_first(&[]).is_empty());
     }
 }
