@@ -105,13 +105,18 @@ impl Tracker {
             step: [step, 0.15],
         };
         let at = |q: [f32; 2]| x[par] + Vector::new(q[0].cos(), q[0].sin()) * q[1].exp();
-        let mut found: Option<(Point, bool, f32)> = None;
-        for m in [s.mirrored, !s.mirrored] {
+        // The bone as it was laid and mirrored: two independent searches, side by side, then
+        // judged in this order.
+        let search = |m: bool| {
             let (best, _) = grid_min_bounded(&w, |q, limit| {
                 s.coarse_cost_below(v, x[par], at(q), m, limit)
             });
             let c = at(best);
-            let fit = s.fit_as(judge, x[par], c, m);
+            (c, m, s.fit_as(judge, x[par], c, m))
+        };
+        let (laid, turned) = rayon::join(|| search(s.mirrored), || search(!s.mirrored));
+        let mut found: Option<(Point, bool, f32)> = None;
+        for (c, m, fit) in [laid, turned] {
             if s.found(&fit, p.reacquire_share, false)
                 && found.is_none_or(|f| fit.child_end > f.2 + 0.1)
             {
