@@ -2,7 +2,9 @@
 //! `track` would (the median plate with the seeds, default parameters, one tracker, no
 //! segments) and prints, for the frames `FROM..=TO` and the joints named, each stage's error
 //! against the labels (prediction, search, refinement, final) and the joint's evidence; then
-//! the tracker's time a frame by stage.
+//! the tracker's time a frame by stage. With `DIAG_FITS=1`, also the cost of each bone from a
+//! watched joint to its children laid on the labels and on the estimates (which pose the
+//! tracker's appearance prefers).
 //!
 //!     cargo run --release --example diag_real -- DIR FROM TO JOINT[,JOINT...]
 use mocap2d::background::BackgroundChoice;
@@ -80,6 +82,31 @@ fn main() -> anyhow::Result<()> {
             );
         }
         println!("{line}");
+        if std::env::var("DIAG_FITS").is_ok() {
+            // The cost of every bone from a watched joint to its children, laid on the labels
+            // and on the estimates.
+            for &j in &watched {
+                for (c, jc) in seeds.joints.iter().enumerate() {
+                    if jc.parent.as_deref() != Some(names[j].as_str()) {
+                        continue;
+                    }
+                    let (Some(gj), Some(gc)) = (
+                        gt.get(&(f, names[j].clone())),
+                        gt.get(&(f, names[c].clone())),
+                    ) else {
+                        continue;
+                    };
+                    let truth = t.fit_bone(&img, c, *gj, *gc);
+                    let est_fit = t.fit_bone(&img, c, est[j].pos, est[c].pos);
+                    if let (Some(a), Some(b)) = (truth, est_fit) {
+                        println!(
+                            "    {} -> {}: cost on labels {:.3} (inliers {:.2}), on estimates {:.3} ({:.2})",
+                            names[j], names[c], a.cost, a.inliers, b.cost, b.inliers
+                        );
+                    }
+                }
+            }
+        }
     }
     let tm = t.timings();
     let ms = |s: f64| 1000.0 * s / tm.frames.max(1) as f64;
