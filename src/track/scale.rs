@@ -373,7 +373,8 @@ mod tests {
         assert_eq!(*f.at(w), *w.image(&img));
         let at = f.at(w).as_raw().as_ptr();
         drop(f);
-        assert_eq!(r.take(9 * 5 * 3).as_ptr(), at);
+        let again = r.take(9 * 5 * 3);
+        assert_eq!(again.as_ptr(), at);
         // Made without its full image: the working image alone, and the full image's buffer
         // back with the recycler at once.
         let full = img.clone();
@@ -381,7 +382,8 @@ mod tests {
         let f = w.frame(full, Some(&r), false);
         assert_eq!(*f.at(w), *w.image(&img));
         assert_eq!(f.bytes(), 9 * 5 * 3);
-        assert_eq!(r.take(37 * 22 * 3).as_ptr(), full_at);
+        let again = r.take(37 * 22 * 3);
+        assert_eq!(again.as_ptr(), full_at);
         // At full resolution the frame is its working image: kept whatever is asked.
         let f = WorkScale::FULL.frame(img.clone(), None, false);
         assert_eq!(*f.full(), img);

@@ -231,7 +231,7 @@ fn the_root_of_the_skeleton_does_not_change_the_uncorrected_dance() {
         let run = tmp.path().join(root);
         let opts = TrackOptions {
             out: Some(run.clone()),
-            ..TrackOptions::new(&dir.join("clip.mp4"), rerooted(&dir, root, tmp.path()))
+            ..TrackOptions::new(dir.join("clip.mp4"), rerooted(&dir, root, tmp.path()))
         };
         track(&opts, &NoProgress).unwrap();
         let rows = read_tracks(&run.join("tracks.csv")).unwrap();
