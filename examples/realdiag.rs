@@ -1,19 +1,21 @@
 //! Development diagnostics on a real clip with labels: tracks it (streaming, background as
 //! `track` builds it), prints the strips, per-100-frame PCK@5, per-joint PCK@5, stage timings, and
-//! the joints more than `--thr` px off between `--from` and `--to`.
+//! the joints more than `--thr` px off between `--from` and `--to`, each with its error at every
+//! stage of the frame's step (prediction, search, refinement, final) and its evidence.
 //!
 //!     cargo run --release --example realdiag -- CLIP SEEDS GT [--thr PX] [--from F] [--to F]
 //!         [--fits] [--probe FRAME JOINT [--at-estimate]]
 //!
-//! `--fits` prints, between `--from` and `--to`, every bone's fit at the estimate and at the
-//! labels; `--probe` saves /tmp/probe.png, the bone's samples at the labels (or the estimate)
-//! on that frame: green fit, red do not, grey carry no weight. The clean plate goes to
-//! /tmp/plate.png.
+//! `--fits` prints, for those joints, the cost of each bone to their children laid on the labels
+//! and on the estimates (which pose the strips' appearance prefers); `--probe` saves
+//! /tmp/probe.png, the bone's samples at the labels (or the estimate) on that frame: green fit,
+//! red do not, grey carry no weight. The clean plate goes to /tmp/plate.png.
 #[path = "common/probe.rs"]
 mod probe;
 
 use mocap2d::background::BackgroundChoice;
 use mocap2d::decode;
+use mocap2d::geom::Point;
 use mocap2d::track::Tracker;
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -63,7 +65,8 @@ fn main() -> anyhow::Result<()> {
     while let Some(frame) = source.next_frame()? {
         let est = match tracker.as_mut() {
             None => {
-                let t = Tracker::new(params.clone(), &seeds, &frame, bg.take());
+                let mut t = Tracker::new(params.clone(), &seeds, &frame, bg.take());
+                t.enable_trace();
                 for l in t.strip_summaries() {
                     println!("{l}");
                 }
@@ -107,11 +110,47 @@ fn main() -> anyhow::Result<()> {
                 per[j].0 += 1;
             }
             if e > thr && idx >= from && idx <= to {
+                let t = tracker.as_ref().expect("built on the first frame");
+                let off = |p: Point| (p.x - x).hypot(p.y - y);
+                let stages = match (idx, t.trace()) {
+                    (1.., Some(tr)) => format!(
+                        " pred={:5.1} search={:5.1} refine={:5.1} evidence={:.2}",
+                        off(tr.predicted[j]),
+                        off(tr.searched[j]),
+                        off(tr.refined[j]),
+                        tr.evidence[j]
+                    ),
+                    _ => String::new(),
+                };
                 lines.push(format!(
-                    "  {n:18} err={e:6.1} score={:.2} {}",
+                    "  {n:18} err={e:6.1} score={:.2} {}{stages}",
                     est[j].score,
                     est[j].status.as_str()
                 ));
+                if args.iter().any(|a| a == "--fits") {
+                    for (c, jc) in seeds.joints.iter().enumerate() {
+                        let label = |k: usize| {
+                            let &(lx, ly) = truth.get(&(idx, names[k].as_str()))?;
+                            Some(Point::new(lx, ly))
+                        };
+                        if jc.parent.as_deref() != Some(n.as_str()) {
+                            continue;
+                        }
+                        let (Some(lj), Some(lc)) = (label(j), label(c)) else {
+                            continue;
+                        };
+                        let fits = (
+                            t.fit_bone(&frame, c, lj, lc),
+                            t.fit_bone(&frame, c, est[j].pos, est[c].pos),
+                        );
+                        if let (Some(a), Some(b)) = fits {
+                            lines.push(format!(
+                                "    -> {:16} cost on the labels {:.3} (inliers {:.2}), on the estimates {:.3} ({:.2})",
+                                names[c], a.cost, a.inliers, b.cost, b.inliers
+                            ));
+                        }
+                    }
+                }
             }
         }
         if !lines.is_empty() {
