@@ -293,7 +293,13 @@ impl Session {
             0 => None,
             k => Some(segments::last_angles(&self.run_dir, k - 1)?),
         };
-        let keys = keys::read(&self.run_dir, &self.names, self.width, self.height, None)?;
+        // `track` keeps frames at full resolution (Lucas–Kanade between keys reads them) only
+        // when keys.toml was there as it started: a file written since is left for `resume`.
+        let keys = if cur.has_full() {
+            keys::read(&self.run_dir, &self.names, self.width, self.height, None)?
+        } else {
+            Vec::new()
+        };
         let mut k = first_segment;
         let mut pre = if before.is_empty() {
             Vec::new()

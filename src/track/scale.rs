@@ -164,6 +164,11 @@ impl Frame {
             .expect("a frame kept at its working resolution alone is read only there")
     }
 
+    /// Whether it holds the frame at full resolution ([`Frame::full`]).
+    pub fn has_full(&self) -> bool {
+        self.full.is_some()
+    }
+
     /// The frame at `work`'s resolution: the image made beforehand when it is at that scale,
     /// else made now ([`WorkScale::image`]; the same bytes either way).
     pub fn at(&self, work: WorkScale) -> Cow<'_, RgbImage> {
@@ -382,6 +387,7 @@ mod tests {
         let f = w.frame(full, Some(&r), false);
         assert_eq!(*f.at(w), *w.image(&img));
         assert_eq!(f.bytes(), 9 * 5 * 3);
+        assert!(!f.has_full());
         let again = r.take(37 * 22 * 3);
         assert_eq!(again.as_ptr(), full_at);
         // At full resolution the frame is its working image: kept whatever is asked.
