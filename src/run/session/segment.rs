@@ -45,6 +45,13 @@ impl Session {
             .map(|j| j.bbox.w.min(j.bbox.h))
             .collect();
         let mut end = self.correction(k + 1)?;
+        if !first.has_full() {
+            // Frames kept at their working resolution alone (a plain `track` that found no
+            // corrections and no keys as it started): a correction written since is not blended
+            // back from, which needs Lucas–Kanade at full resolution; the segment after starts
+            // from it, and `resume` blends it.
+            end = None;
+        }
         let keyframe = k == 0 || start.corrected;
         let corrected = k > 0 && start.corrected;
         let learnt = match (k, self.carried.take()) {
