@@ -265,13 +265,9 @@ pub fn coarse_levels(img: &RgbImage, levels: usize) -> Vec<RgbImage> {
 
 /// Every pyramid level of `img` as owned images, level 0 (a copy of `img`) first.
 pub fn halve_all(img: &RgbImage, levels: usize) -> Vec<RgbImage> {
-    let mut out = vec![img.clone()];
-    while out.len() < levels.max(1) {
-        let prev = &out[out.len() - 1];
-        let next = halve(prev.as_raw(), prev.width() as usize, prev.height() as usize);
-        out.push(next);
-    }
-    out
+    std::iter::once(img.clone())
+        .chain(coarse_levels(img, levels))
+        .collect()
 }
 
 impl<'a> Pyramid<'a> {
