@@ -88,13 +88,9 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
     session.manifest.write(run_dir)?;
     let source = decode::open_beside_tracking(&clip, Some(session.manifest.fps))?;
     progress.start("track", Some(session.manifest.frames).filter(|&n| n > 0));
-    let work = session.work_scale();
-    let recycler = decode::Recycler::new();
-    let mut source = source;
-    source.recycle_from(recycler.clone());
     // Resumed segments start on corrections or hold keys: Lucas–Kanade between them reads
     // the frames at full resolution.
-    let rx = decode::spawn_reader_with(source, 8, move |f| work.frame(f, Some(&recycler), true));
+    let rx = session.frames_from(source, true);
     let result = session.run(rx.into_iter(), first, progress);
     progress.finish();
     let done = result?;

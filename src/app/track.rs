@@ -117,7 +117,7 @@ pub fn track_into(
         Some(d) => crate::seed::dlc::seeds_from_dlc(&opts.seeds, d)?,
     };
     let work = crate::track::scale::WorkScale::for_seeds(&opts.params, &seeds);
-    let mut source: Box<dyn FrameSource> = decode::open_beside_tracking(&opts.clip, opts.fps)?;
+    let source: Box<dyn FrameSource> = decode::open_beside_tracking(&opts.clip, opts.fps)?;
     let info = source.info().clone();
     let min = crate::seed::MIN_BOX_PX;
     if info.width < min || info.height < min {
@@ -250,15 +250,9 @@ pub fn track_into(
         carried: None,
     };
     progress.start("track", info.frame_count_hint);
-    // The decode thread makes each frame's working image, and keeps the frame at full
-    // resolution too only where keys are (Lucas–Kanade between them reads it): a frame let go
-    // at once hands its buffer straight back for the next one.
+    // Frames at full resolution are kept only where keys are (a new run has no corrections).
     let keep_full = crate::run::keys::path(&run_dir).exists();
-    let recycler = decode::Recycler::new();
-    source.recycle_from(recycler.clone());
-    let rx = decode::spawn_reader_with(source, 8, move |f| {
-        work.frame(f, Some(&recycler), keep_full)
-    });
+    let rx = session.frames_from(source, keep_full);
     let mut decode_stop = None;
     let result = session.run(
         decode::salvage(rx.into_iter(), info.stated_frames, &mut decode_stop),

@@ -26,6 +26,7 @@
 //! the near arm and followed there. The figures behind these choices are in docs/NOTES.md
 //! ("Segments: carrying the tracker on").
 use crate::background::Background;
+use crate::decode::{self, FrameSource, Recycler};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::run::keys::{self, Key};
@@ -37,6 +38,7 @@ use crate::track::scale::{Frame, WorkScale};
 use crate::track::{JointEstimate, TrackParams, Tracker};
 use std::collections::VecDeque;
 use std::path::PathBuf;
+use std::sync::mpsc::Receiver;
 
 mod flow;
 mod pass;
@@ -183,6 +185,24 @@ impl Session {
     /// makes each frame's working image at ([`WorkScale::frame`]).
     pub fn work_scale(&self) -> WorkScale {
         WorkScale::for_seeds(&self.params, &self.base)
+    }
+
+    /// `source`'s frames for [`Session::run`], decoded on their own thread (a channel of 8),
+    /// each with its working image made there and its buffers handed back for later frames
+    /// (`decode::Recycler`). With `keep_full` false, the frames at full resolution are let go
+    /// once halved: for a run with no keys and no corrections, where Lucas–Kanade between keys,
+    /// the only reader of them, does not run.
+    pub fn frames_from(
+        &self,
+        mut source: Box<dyn FrameSource>,
+        keep_full: bool,
+    ) -> Receiver<Result<(u64, Frame)>> {
+        let work = self.work_scale();
+        let recycler = Recycler::new();
+        source.recycle_from(recycler.clone());
+        decode::spawn_reader_with(source, 8, move |f| {
+            work.frame(f, Some(&recycler), keep_full)
+        })
     }
 
     /// A tracker built on the seed frame from segment 0's file.
