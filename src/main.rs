@@ -245,7 +245,7 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             }
         }
         Command::Report(a) => {
-            print!("{}", app::report(&a.run)?.to_markdown());
+            print!("{}", app::report(&a.run, a.keys as usize)?.to_markdown());
         }
         Command::Synth(a) => {
             let opts = a.options();

@@ -6,8 +6,9 @@ use crate::seed::read_seeds;
 use std::path::Path;
 
 /// `mocap2d report`: the correction report of a run folder (see [`crate::run::report`]), as
-/// `report.md` holds it, recomputed from its `tracks.csv` and segment files.
-pub fn report(run_dir: &Path) -> Result<crate::run::report::Report> {
+/// `report.md` holds it, recomputed from its `tracks.csv` and segment files, with `keys` frames
+/// worth keying.
+pub fn report(run_dir: &Path, keys: usize) -> Result<crate::run::report::Report> {
     let manifest = Manifest::read(&run_dir.join(crate::run::manifest::RUN_TOML))?;
     let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
     if !manifest.complete {
@@ -20,7 +21,7 @@ pub fn report(run_dir: &Path) -> Result<crate::run::report::Report> {
             ),
         });
     }
-    Ok(crate::run::report::for_run(run_dir, &manifest, &base)?.1)
+    Ok(crate::run::report::for_run(run_dir, &manifest, &base, keys)?.1)
 }
 
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines

@@ -58,7 +58,9 @@ impl ClipOutcome {
 /// `None` when `run_dir` has no complete run to report on; while every clip gives `None` the
 /// summary has no `flagged segments` column.
 pub fn flagged_segments_hook(run_dir: &Path) -> Option<usize> {
-    crate::app::report(run_dir).ok().map(|r| r.ranked().len())
+    crate::app::report(run_dir, crate::run::report::SUGGESTED)
+        .ok()
+        .map(|r| r.ranked().len())
 }
 
 /// The exit code a batch ends with: 130 if it was interrupted, 0 if no clip failed, 2 if every

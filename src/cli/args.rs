@@ -273,6 +273,11 @@ pub struct TrackArgs {
 pub struct ReportArgs {
     /// Run folder written by `mocap2d track`.
     pub run: PathBuf,
+    /// How many frames you mean to key: the report names the K frames that, keyed together,
+    /// leave the least doubt (with the keys already placed).
+    #[arg(long, value_name = "K", default_value_t = mocap2d::run::report::SUGGESTED as u64,
+          value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub keys: u64,
 }
 
 #[derive(Debug, clap::Args)]

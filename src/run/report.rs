@@ -67,7 +67,7 @@ pub struct Report {
     pub files: u64,
     /// Every frame's need (about how many of its joints are far off), in frame order.
     pub frame_need: Vec<(u64, f32)>,
-    /// Frames worth keying next, most needy first ([`crate::run::suggest`]).
+    /// Frames worth keying next, most worth first ([`crate::run::suggest`]).
     pub suggested: Vec<u64>,
 }
 
@@ -247,9 +247,11 @@ impl Report {
             let list: Vec<String> = self.suggested.iter().map(u64::to_string).collect();
             let _ = writeln!(
                 s,
-                "Frames worth keying next, most needy first: {}. A key on a frame (in \
-                 `keys.toml`, any subset of joints) pulls the frames around it; then run \
-                 `mocap2d resume RUN --segment K` from the segment that holds the first.\n",
+                "Frames worth keying next, most worth first: {}. Keyed together they leave the \
+                 least doubt over the clip (`mocap2d report RUN --keys K` names K of them). A \
+                 key on a frame (in `keys.toml`, any subset of joints) pulls the frames around \
+                 it; then run `mocap2d resume RUN --segment K` from the segment that holds the \
+                 first.\n",
                 list.join(", ")
             );
         }
@@ -355,12 +357,18 @@ pub struct Tally {
     pub status: std::collections::BTreeMap<&'static str, u64>,
 }
 
-/// Frames `report.md` suggests keying next.
+/// Frames `report.md` suggests keying next (`mocap2d report --keys K` asks for another number).
 pub const SUGGESTED: usize = 10;
 
-/// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`. The
-/// file is read a frame at a time (see [`Stream`]): memory does not grow with the clip.
-pub fn for_run(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Tally, Report)> {
+/// The report on `run_dir/tracks.csv`, tracked as `manifest` says from the seeds `base`, with
+/// `suggested` frames worth keying. The file is read a frame at a time (see [`Stream`]): memory
+/// does not grow with the clip.
+pub fn for_run(
+    run_dir: &Path,
+    manifest: &Manifest,
+    base: &Seeds,
+    suggested: usize,
+) -> Result<(Tally, Report)> {
     let plan = Plan {
         seed_frame: manifest.seed_frame,
         len: manifest.segment_len,
@@ -410,7 +418,7 @@ pub fn for_run(run_dir: &Path, manifest: &Manifest, base: &Seeds) -> Result<(Tal
     let keys = crate::run::keys::read(run_dir, &names, manifest.width, manifest.height, None)
         .unwrap_or_default();
     keyed.extend(keys.iter().map(|k| k.frame));
-    report.suggested = crate::run::suggest::suggest(&report.frame_need, &keyed, SUGGESTED);
+    report.suggested = crate::run::suggest::suggest(&report.frame_need, &keyed, suggested);
     Ok((tally, report))
 }
 

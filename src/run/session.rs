@@ -478,7 +478,12 @@ impl Session {
 
     /// The report on the run's `tracks.csv`.
     pub fn report(&self) -> Result<(Tally, Report)> {
-        crate::run::report::for_run(&self.run_dir, &self.manifest, &self.base)
+        crate::run::report::for_run(
+            &self.run_dir,
+            &self.manifest,
+            &self.base,
+            crate::run::report::SUGGESTED,
+        )
     }
 }
 

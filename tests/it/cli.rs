@@ -690,17 +690,29 @@ fn the_root_of_the_skeleton_does_not_change_the_tracking() {
 fn the_report_names_frames_worth_keying() {
     let d = Dir::new();
     let run = d.track_ok(&walk("clip.mp4"), &walk("joints.toml"), "walk.mocap", &[]);
-    let report = read(&run.join("report.md"));
-    let line = report
-        .lines()
-        .find(|l| l.starts_with("Frames worth keying next"))
-        .unwrap_or_else(|| panic!("no suggestions in:\n{report}"));
-    let list = line.split(": ").nth(1).unwrap().split('.').next().unwrap();
-    let frames: Vec<usize> = list.split(", ").map(|f| f.parse().unwrap()).collect();
-    assert!(!frames.is_empty() && frames.len() <= 10, "{line}");
-    let mut sorted = frames.clone();
-    sorted.sort();
-    sorted.dedup();
-    assert_eq!(sorted.len(), frames.len(), "{line}");
-    assert!(frames.iter().all(|&f| f > 0 && f < FRAMES), "{line}");
+    let frames = |report: &str| -> Vec<usize> {
+        let line = report
+            .lines()
+            .find(|l| l.starts_with("Frames worth keying next"))
+            .unwrap_or_else(|| panic!("no suggestions in:\n{report}"));
+        let list = line.split(": ").nth(1).unwrap().split('.').next().unwrap();
+        let frames: Vec<usize> = list.split(", ").map(|f| f.parse().unwrap()).collect();
+        let mut sorted = frames.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted.len(), frames.len(), "{line}");
+        assert!(frames.iter().all(|&f| f > 0 && f < FRAMES), "{line}");
+        frames
+    };
+    let ten = frames(&read(&run.join("report.md")));
+    assert!(!ten.is_empty() && ten.len() <= 10, "{ten:?}");
+    // `report --keys K` names the K keyed together (printed, report.md left as it was).
+    let o = d.run(&["report", s(&run), "--keys", "3"]);
+    assert_exit(&o, 0);
+    let three = frames(&String::from_utf8_lossy(&o.stdout));
+    assert_eq!(three.len(), 3, "{three:?}");
+    assert_eq!(frames(&read(&run.join("report.md"))), ten);
+    let o = d.run(&["report", s(&run), "--keys", "0"]);
+    assert_exit(&o, 2);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--keys"));
 }

@@ -151,7 +151,7 @@ fn lines_before(run: &Path, frame: u64) -> Vec<String> {
 /// Of the joint-frames more than 10 px off: how many there are, the share in flagged segments,
 /// and the share the report lists (the joint, within its frame range, in a flagged segment).
 fn far_recall(s: &Synth, run: &Path, plan: &Plan, flagged: &[u64]) -> (usize, f32, f32) {
-    let report = mocap2d::app::report(run).unwrap();
+    let report = mocap2d::app::report(run, mocap2d::run::report::SUGGESTED).unwrap();
     let names: Vec<String> = read_seeds(&run.join("seeds.toml"))
         .unwrap()
         .0
