@@ -9,9 +9,9 @@
 //!   key on frame N, keeping every other key (and that frame's other keyed joints); an empty
 //!   `joints` removes frame N's key. Checked as `keys::read` checks the file (joint names,
 //!   inside the frame, frame within the clip) → 400. Written while holding the run folder's lock
-//!   (409 while `track` or `resume` holds it), atomically. The file is rewritten from its parsed
-//!   keys in frame order ([`crate::run::keys::to_text`]): the user's comments in it are not
-//!   kept.
+//!   (409 while `track` or `resume` holds it), atomically, and only when the keys change. Only
+//!   that key's lines change ([`crate::run::keys::set_key`]): the user's comments, blank lines,
+//!   the order and the writing of every other key and joint stay as they were.
 
 use super::api::{json_body, Api, Reply};
 use super::draw::png_bytes;
@@ -221,6 +221,7 @@ impl Api {
             Ok(k) => k,
             Err(e) => return Reply::error(409, format!("{e}; fix keys.toml by hand first")),
         };
+        let before = all.clone();
         let at = all.iter().position(|k| k.frame == edit.frame);
         if edit.joints.is_empty() {
             if let Some(i) = at {
@@ -241,9 +242,25 @@ impl Api {
             }
             all.sort_by_key(|k| k.frame);
         }
-        let text = keys::to_text(&all, &names);
-        if let Err(e) = keys::parse(&text, &path, &names, w, h, frames) {
-            return Reply::error(400, e.to_string());
+        // The file's own text with only this key changed: its comments and layout stay.
+        let text = if all == before {
+            old_text.clone()
+        } else {
+            match keys::set_key(&old_text, &path, &names, edit.frame, &given) {
+                Ok(t) => t,
+                Err(e) => return Reply::error(409, format!("{e}; your key is not saved")),
+            }
+        };
+        match keys::parse(&text, &path, &names, w, h, frames) {
+            Ok(back) if back == all => {}
+            Ok(_) => {
+                return Reply::error(
+                    500,
+                    "keys.toml as edited does not read back to the keys meant; your key is not \
+                     saved",
+                )
+            }
+            Err(e) => return Reply::error(400, e.to_string()),
         }
         let keyed: Vec<&String> = all
             .iter()

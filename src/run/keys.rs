@@ -17,6 +17,7 @@ use crate::error::{Error, Result};
 use crate::geom::Point;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use toml_edit::{ArrayOfTables, DocumentMut, Item, Table, Value};
 
 /// One key: a frame and, for each of the run's joints in seed-file order, its position if the
 /// key gives it.
@@ -195,35 +196,244 @@ pub fn parse(
     Ok(keys.into_values().map(|(_, k)| k).collect())
 }
 
-/// The text of a keys file holding `keys` (one `[[key]]` per key, in the order given; joints
-/// in `names` order, positions as `[x, y]`), which [`parse`] reads back to the same keys. Used
-/// by `serve` to save keys from the page; comments in the file it replaces are not kept.
-pub fn to_text(keys: &[Key], names: &[String]) -> String {
-    let mut out = String::from(
-        "# Keys on any frame: `joint = [x, y]` in px. Written by `mocap2d serve`; edit freely.\n",
-    );
-    for k in keys {
-        out.push_str(&format!("\n[[key]]\nframe = {}\n", k.frame));
-        for (name, p) in names.iter().zip(&k.joints) {
-            if let Some(p) = p {
-                out.push_str(&format!("{} = [{:?}, {:?}]\n", toml_key(name), p.x, p.y));
+/// The first line of a keys file that `serve` starts.
+const HEADER: &str =
+    "# Keys on any frame: `joint = [x, y]` in px. Written by `mocap2d serve`; edit freely.\n";
+
+/// `text`, a keys file that [`parse`] reads (empty when there is none yet), with the key on
+/// `frame` set to the joints `joints` gives (one slot per joint of `names`) and its other joints
+/// kept; with no joint given, the key on `frame` is removed. Used by `serve` to save a key from
+/// the page. Everything the edit does not change stays as it was, byte for byte: the other
+/// keys, comments on lines of their own and after an entry, blank lines, the order of keys and
+/// of joints, how numbers are written.
+///
+/// - A joint given keeps its line and that line's comment; only `[x, y]` changes, and not even
+///   that when it already holds the same position.
+/// - A joint new to a key goes after the key's joints that come before it in `names` order.
+/// - A new key goes before the first key on a later frame (at the end when there is none),
+///   after a blank line; comments above the first key that a blank line parts from it stay at
+///   the top of the file.
+/// - A removed key's `[[key]]`, `frame` and joint lines go; its comments stay where it was,
+///   each on a line of its own.
+/// - Keys written as `key = [{ frame = N, … }]` come back as `[[key]]` tables; when that
+///   array holds comments, which would be lost, the file is refused instead.
+pub fn set_key(
+    text: &str,
+    file: &Path,
+    names: &[String],
+    frame: u64,
+    joints: &[Option<Point>],
+) -> Result<String> {
+    let base = if text.trim().is_empty() { HEADER } else { text };
+    let mut doc: DocumentMut = base
+        .parse()
+        .map_err(|e: toml_edit::TomlError| Error::Seed {
+            path: file.to_owned(),
+            line: e.span().map(|s| base[..s.start].lines().count().max(1)),
+            joint: None,
+            msg: e.message().to_string(),
+        })?;
+    let err = |msg: &str| Error::Seed {
+        path: file.to_owned(),
+        line: None,
+        joint: None,
+        msg: msg.into(),
+    };
+    let (lead, item) = match doc.as_table_mut().remove_entry("key") {
+        Some((k, item)) => (prefix(k.leaf_decor()).to_owned(), item),
+        None => (String::new(), Item::None),
+    };
+    let aot = match item {
+        Item::None => ArrayOfTables::new(),
+        Item::Value(Value::Array(a)) if a.is_empty() => ArrayOfTables::new(),
+        Item::Value(v) if v.to_string().contains('#') => {
+            return Err(err(
+                "its keys are written `key = [{ frame = N, … }]` with comments inside, which \
+                 saving from the page would lose: write them as [[key]] tables",
+            ))
+        }
+        item => item
+            .into_array_of_tables()
+            .map_err(|_| err("`key` must be [[key]] entries"))?,
+    };
+    let mut tables: Vec<Table> = aot.into_iter().collect();
+    if let Some(first) = tables.first_mut().filter(|_| !lead.is_empty()) {
+        // The comments above `key = [`.
+        let own = prefix(first.decor()).to_owned();
+        first.decor_mut().set_prefix(lead + &own);
+    } else if !lead.is_empty() {
+        let trailing = doc.trailing().as_str().unwrap_or_default().to_owned();
+        doc.set_trailing(lead + &trailing);
+    }
+    let at = tables.iter().position(|t| frame_of(t) == Some(frame));
+    if joints.iter().all(Option::is_none) {
+        if let Some(i) = at {
+            let gone = tables.remove(i);
+            let kept = comments_of(&gone);
+            if let Some(next) = tables.get_mut(i) {
+                let own = prefix(next.decor()).to_owned();
+                if kept.contains('#') {
+                    next.decor_mut().set_prefix(kept + &own);
+                } else if i == 0 {
+                    next.decor_mut().set_prefix(prefix(gone.decor()).to_owned());
+                }
+            } else if kept.contains('#') {
+                let trailing = doc.trailing().as_str().unwrap_or_default().to_owned();
+                doc.set_trailing(kept + &trailing);
             }
+        }
+    } else {
+        let i = match at {
+            Some(i) => i,
+            None => {
+                let i = tables
+                    .iter()
+                    .position(|t| frame_of(t).is_some_and(|f| f > frame))
+                    .unwrap_or(tables.len());
+                let mut t = Table::new();
+                t.insert("frame", toml_edit::value(frame as i64));
+                let lead = if let Some(first) = tables.first_mut().filter(|_| i == 0) {
+                    // Comments above the first key that a blank line parts from it head the
+                    // file: they stay above the new first key.
+                    let old = prefix(first.decor()).to_owned();
+                    let (head, tail) = old.split_at(after_last_blank_line(&old));
+                    first.decor_mut().set_prefix(format!("\n{tail}"));
+                    head.to_owned()
+                } else if tables.is_empty() {
+                    // A file of comments only: they stay above the first key.
+                    let mut lead = doc.trailing().as_str().unwrap_or_default().to_owned();
+                    doc.set_trailing("");
+                    if lead.trim().is_empty() {
+                        lead.clear();
+                    } else {
+                        lead.truncate(lead.trim_end().len());
+                        lead.push_str("\n\n");
+                    }
+                    lead
+                } else {
+                    "\n".to_owned()
+                };
+                t.decor_mut().set_prefix(lead);
+                tables.insert(i, t);
+                i
+            }
+        };
+        for (j, p) in joints.iter().enumerate() {
+            if let Some(p) = p {
+                set_joint(&mut tables[i], names, j, *p);
+            }
+        }
+    }
+    let mut aot = ArrayOfTables::new();
+    for t in tables {
+        aot.push(t);
+    }
+    doc.insert("key", Item::ArrayOfTables(aot));
+    Ok(doc.to_string())
+}
+
+/// A key table's `frame`.
+fn frame_of(t: &Table) -> Option<u64> {
+    t.get("frame")?.as_integer()?.try_into().ok()
+}
+
+/// A decor's prefix as written (nothing when it has none).
+fn prefix(d: &toml_edit::Decor) -> &str {
+    d.prefix().and_then(|r| r.as_str()).unwrap_or_default()
+}
+
+/// Where the text after the last blank line of `s` starts (0 when it has none).
+fn after_last_blank_line(s: &str) -> usize {
+    let mut at = 0;
+    let mut end = 0;
+    for line in s.split_inclusive('\n') {
+        end += line.len();
+        if line.ends_with('\n') && line.trim().is_empty() {
+            at = end;
+        }
+    }
+    at
+}
+
+/// The comments of a key table, each on a line of its own, with the blank lines before and
+/// between them: the key's lines without the key.
+fn comments_of(t: &Table) -> String {
+    let mut out = String::new();
+    let mut lines = |s: &str, own_lines: bool| {
+        for line in s.split_inclusive('\n') {
+            let l = line.trim();
+            if l.starts_with('#') {
+                out.push_str(l);
+                out.push('\n');
+            } else if own_lines && l.is_empty() && line.ends_with('\n') {
+                out.push('\n');
+            }
+        }
+    };
+    lines(prefix(t.decor()), true);
+    lines(
+        t.decor()
+            .suffix()
+            .and_then(|r| r.as_str())
+            .unwrap_or_default(),
+        false,
+    );
+    for (name, item) in t.iter() {
+        if let Some(key) = t.key(name) {
+            lines(prefix(key.leaf_decor()), true);
+        }
+        if let Some(v) = item.as_value() {
+            lines(
+                v.decor()
+                    .suffix()
+                    .and_then(|r| r.as_str())
+                    .unwrap_or_default(),
+                false,
+            );
         }
     }
     out
 }
 
-/// `name` as a TOML key: bare when it can be (letters, digits, `_`, `-`), else quoted, so that
-/// a joint named `female.head` is not read back as a table `female`.
-fn toml_key(name: &str) -> String {
-    let bare = !name.is_empty()
-        && name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
-    if bare {
-        name.to_owned()
-    } else {
-        toml::Value::String(name.to_owned()).to_string()
+/// Sets joint `j` of `names` to `p` in the key table `t`, keeping its line's layout and
+/// comment; a joint not in `t` yet goes after those before it in `names` order.
+fn set_joint(t: &mut Table, names: &[String], j: usize, p: Point) {
+    let name = names[j].as_str();
+    let new: Value = format!("[{:?}, {:?}]", p.x, p.y)
+        .parse()
+        .expect("two floats are a TOML array");
+    if let Some(v) = t.get_mut(name).and_then(Item::as_value_mut) {
+        if point_of(v) != Some(p) {
+            let decor = v.decor().clone();
+            *v = new;
+            *v.decor_mut() = decor;
+        }
+        return;
+    }
+    let later = |k: &str| names.iter().position(|n| n == k).is_some_and(|i| i > j);
+    let moved: Vec<String> = t
+        .iter()
+        .map(|(k, _)| k.to_owned())
+        .skip_while(|k| !later(k))
+        .collect();
+    let moved: Vec<(toml_edit::Key, Item)> =
+        moved.iter().filter_map(|k| t.remove_entry(k)).collect();
+    t.insert(name, Item::Value(new));
+    for (k, item) in moved {
+        t.insert_formatted(&k, item);
+    }
+}
+
+/// A joint's position as [`parse`] reads it.
+fn point_of(v: &Value) -> Option<Point> {
+    let a = v.as_array()?;
+    let xy: Vec<f64> = a
+        .iter()
+        .filter_map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+        .collect();
+    match xy[..] {
+        [x, y] if a.len() == 2 => Some(Point::new(x as f32, y as f32)),
+        _ => None,
     }
 }
 
@@ -288,16 +498,148 @@ mod tests {
         assert!(e.contains("line 3") && e.contains("[x, y]"), "{e}");
     }
 
+    /// A hand-written file: comments at the top, above keys, after entries, blank lines, an
+    /// integer position and a quoted name.
+    const HAND: &str = "# Keys for the walk, by hand.\n# Second line of the top.\n\n\
+                        # Hip hidden behind the arm here.\n[[key]]\nframe = 10\n\
+                        hip = [1, 2]   # eyeballed\n\
+                        \"ankle\" = [5.25, 6.0]\n\n\
+                        # frame 30: the knee only\n[[key]]\nframe = 30 # from the slow-mo\n\
+                        # left leg\nknee = [10.0, 20.5]\n\n# The end.\n";
+
+    fn set(text: &str, frame: u64, joints: &[Option<Point>]) -> String {
+        let text = set_key(text, Path::new("keys.toml"), &names(), frame, joints).unwrap();
+        parse_str(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        text
+    }
+
+    fn p(x: f32, y: f32) -> Option<Point> {
+        Some(Point::new(x, y))
+    }
+
+    fn comments(text: &str) -> Vec<&str> {
+        text.lines()
+            .filter_map(|l| l.find('#').map(|i| &l[i..]))
+            .collect()
+    }
+
     #[test]
-    fn to_text_reads_back_to_the_same_keys() {
-        let keys = parse_str(
-            "[[key]]\nframe = 30\nknee = [10, 20.25]\n[[key]]\nframe = 4\nhip = [1.5, 2.0]\nankle = [3, 4]\n",
-        )
-        .unwrap();
-        let text = to_text(&keys, &names());
-        assert_eq!(parse_str(&text).unwrap(), keys, "{text}");
-        assert!(text.contains("[[key]]\nframe = 4\nhip = [1.5, 2.0]\nankle = [3.0, 4.0]\n"));
-        assert_eq!(parse_str(&to_text(&[], &names())).unwrap(), vec![]);
+    fn set_key_changes_only_the_joint_it_moves_and_the_key_it_adds() {
+        let moved = set(HAND, 10, &[None, None, p(7.5, 8.0)]);
+        let text = set(&moved, 20, &[p(3.0, 4.0), None, None]);
+        assert_eq!(comments(&text), comments(HAND), "{text}");
+        // Every line of HAND is still there, in order, but the moved ankle's.
+        let kept: Vec<&str> = HAND.lines().filter(|l| !l.contains("ankle")).collect();
+        let mut lines = text.lines();
+        for l in &kept {
+            assert!(lines.any(|m| m == *l), "{l:?} lost or moved:\n{text}");
+        }
+        assert!(text.contains("\n\"ankle\" = [7.5, 8.0]\n"), "{text}");
+        assert!(
+            text.contains("eyeballed\n\"ankle\" = [7.5, 8.0]\n\n[[key]]\nframe = 20\nhip = [3.0, 4.0]\n\n# frame 30"),
+            "{text}"
+        );
+        let keys = parse_str(&text).unwrap();
+        assert_eq!(
+            keys.iter().map(|k| k.frame).collect::<Vec<_>>(),
+            [10, 20, 30]
+        );
+        assert_eq!(keys[0].joints, vec![p(1.0, 2.0), None, p(7.5, 8.0)]);
+        assert_eq!(keys[1].joints, vec![p(3.0, 4.0), None, None]);
+        assert_eq!(keys[2].joints, vec![None, p(10.0, 20.5), None]);
+        // The same position again changes no byte, not even `[1, 2]`.
+        assert_eq!(set(HAND, 10, &[p(1.0, 2.0), None, None]), HAND);
+    }
+
+    #[test]
+    fn a_joint_new_to_a_key_goes_in_joint_order_and_keeps_its_neighbours_comments() {
+        let text = set(HAND, 10, &[None, p(9.0, 9.5), None]);
+        assert!(
+            text.contains(
+                "hip = [1, 2]   # eyeballed\nknee = [9.0, 9.5]\n\"ankle\" = [5.25, 6.0]\n"
+            ),
+            "{text}"
+        );
+        assert_eq!(comments(&text), comments(HAND));
+    }
+
+    #[test]
+    fn a_new_first_key_goes_below_the_top_comments_and_above_the_first_keys_own() {
+        let text = set(HAND, 2, &[None, None, p(1.0, 1.0)]);
+        assert!(
+            text.starts_with(
+                "# Keys for the walk, by hand.\n# Second line of the top.\n\n\
+                              [[key]]\nframe = 2\nankle = [1.0, 1.0]\n\n\
+                              # Hip hidden behind the arm here.\n[[key]]\nframe = 10\n"
+            ),
+            "{text}"
+        );
+        assert_eq!(comments(&text), comments(HAND));
+        let last = set(HAND, 40, &[p(1.0, 1.0), None, None]);
+        assert!(
+            last.ends_with("left leg\nknee = [10.0, 20.5]\n\n[[key]]\nframe = 40\nhip = [1.0, 1.0]\n\n# The end.\n"),
+            "{last}"
+        );
+    }
+
+    #[test]
+    fn a_removed_key_goes_but_its_comments_stay() {
+        let text = set(HAND, 30, &[None, None, None]);
+        assert_eq!(comments(&text), comments(HAND), "{text}");
+        assert!(
+            !text.contains("frame = 30") && !text.contains("\nknee"),
+            "{text}"
+        );
+        assert_eq!(
+            parse_str(&text)
+                .unwrap()
+                .iter()
+                .map(|k| k.frame)
+                .collect::<Vec<_>>(),
+            [10]
+        );
+        let text = set(&text, 10, &[None, None, None]);
+        assert_eq!(comments(&text), comments(HAND), "{text}");
+        assert_eq!(parse_str(&text).unwrap(), vec![]);
+        // Keys again after all were removed: below every comment kept.
+        let text = set(&text, 5, &[p(1.0, 1.0), None, None]);
+        assert!(
+            text.ends_with("\n\n[[key]]\nframe = 5\nhip = [1.0, 1.0]\n"),
+            "{text}"
+        );
+        assert_eq!(comments(&text), comments(HAND), "{text}");
+        // A frame without a key: nothing to remove.
+        assert_eq!(set(HAND, 11, &[None, None, None]), HAND);
+    }
+
+    #[test]
+    fn a_new_file_has_the_header_and_reads_back() {
+        let text = set("", 4, &[p(1.5, 2.0), None, p(3.0, 4.0)]);
+        assert_eq!(
+            text,
+            format!("{HEADER}\n[[key]]\nframe = 4\nhip = [1.5, 2.0]\nankle = [3.0, 4.0]\n")
+        );
+        let text = set(&text, 30, &[None, p(10.0, 20.25), None]);
+        assert_eq!(parse_str(&text).unwrap().len(), 2, "{text}");
+        let only = set("# mine\n", 4, &[p(1.0, 2.0), None, None]);
+        assert_eq!(only, "# mine\n\n[[key]]\nframe = 4\nhip = [1.0, 2.0]\n");
+        assert_eq!(set("# mine\n\n\n", 4, &[p(1.0, 2.0), None, None]), only);
+    }
+
+    #[test]
+    fn keys_in_an_inline_array_become_tables_unless_comments_would_go() {
+        let text = set(
+            "# above\nkey = [{ frame = 3, hip = [1, 2] }, { frame = 9, knee = [3, 4] }]\n",
+            9,
+            &[None, p(5.0, 6.0), None],
+        );
+        let keys = parse_str(&text).unwrap();
+        assert_eq!(keys[0].joints, vec![p(1.0, 2.0), None, None], "{text}");
+        assert_eq!(keys[1].joints, vec![None, p(5.0, 6.0), None], "{text}");
+        assert!(text.starts_with("# above\n"), "{text}");
+        let commented = "key = [\n  { frame = 3, hip = [1, 2] }, # mine\n]\n";
+        let e = set_key(commented, Path::new("keys.toml"), &names(), 3, &[None; 3]);
+        assert!(e.unwrap_err().to_string().contains("[[key]] tables"));
     }
 
     #[test]
@@ -314,7 +656,7 @@ mod tests {
                 Some(Point::new(5.0, 6.0)),
             ],
         }];
-        let text = to_text(&keys, &names);
+        let text = set_key("", Path::new("keys.toml"), &names, 3, &keys[0].joints).unwrap();
         assert!(text.contains("\"female.head\" = [1.0, 2.0]\n"), "{text}");
         assert!(text.contains("\nknee = [5.0, 6.0]\n"), "{text}");
         let back = parse(&text, Path::new("keys.toml"), &names, 100, 80, None).unwrap();

@@ -1,10 +1,11 @@
 // End-to-end test of the correction page in headless Chromium (Debian's /usr/bin/chromium,
 // driven by playwright-core): render and track a tiny synth clip, give the run a segment file,
 // start `mocap2d serve`, drag the head's rectangle, rotate the wrist's, save, and check that the
-// segment file changed by the dragged amounts; then go to frame 12, drag the left knee, save a
-// key and check keys.toml holds it. Then the seeding page of the bare clip (`serve clip.mp4
-// --skeleton joints.toml --seeds-out first.toml`): go to frame 20, drag the head, save the seeds,
-// check the file and that `track` reads it, and track from the page. Leaves screenshots.
+// segment file changed by the dragged amounts; then go to frame 12, step back and forward a frame
+// by keys and buttons, drag the left knee, save a key and check keys.toml holds it. Then the
+// seeding page of the bare clip (`serve clip.mp4 --skeleton joints.toml --seeds-out first.toml`):
+// go to frame 20, step by keys, drag the head, save the seeds, check the file and that `track`
+// reads it, and track from the page. Leaves screenshots.
 //
 //   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default target/debug/mocap2d;
 //                                          CHROMIUM: default /usr/bin/chromium;
@@ -167,6 +168,25 @@ try {
   // A key on any frame: go to frame 12, drag the left knee, save the key.
   await page.fill("#frameno", "12");
   await page.click("#go");
+  // Stepping a frame: ← and , go back, → and . forward, as ◀ ▶ do; not while typing in the
+  // frame box.
+  const onFrame = (n) => page.waitForFunction((n) => location.hash === `#f${n}`
+    && new RegExp(`^frame ${n}\\b`).test(document.querySelector("#ktitle").textContent),
+  n, { timeout: 10000 }).then(() => true, () => false);
+  check(await onFrame(12), "Go opens frame 12");
+  await page.evaluate(() => document.activeElement.blur());
+  const seen = [];
+  for (const [how, n] of [["ArrowLeft", 11], [",", 10], ["#prevframe", 9], ["ArrowRight", 10],
+    [".", 11], ["#nextframe", 12]]) {
+    if (how.startsWith("#")) await page.click(how); else await page.keyboard.press(how);
+    seen.push((await onFrame(n)) ? n : `not ${n}`);
+  }
+  check(seen.join(", ") === "11, 10, 9, 10, 11, 12",
+    `← , ◀ → . ▶ step back and forward a frame at a time: ${seen.join(", ")}`);
+  await page.focus("#frameno");
+  await page.keyboard.press("ArrowLeft");
+  await page.waitForTimeout(300);
+  check(await onFrame(12), "← in the frame box does not step");
   const knee = page.locator('#kstage circle.kpoint[data-name="knee_l"]');
   await knee.waitFor();
   await page.waitForFunction(() => {
@@ -231,6 +251,16 @@ try {
     const im = document.querySelector("#stage image");
     return im && im.getAttribute("href").endsWith("/20/frame.png") && im.getBBox().width > 0;
   });
+  // , and . step the seeding page back and forward (its arrow keys nudge a rectangle).
+  const seedOn = (n) => sp.waitForFunction((n) => {
+    const im = document.querySelector("#stage image");
+    return im && im.getAttribute("href").endsWith(`/${n}/frame.png`) && im.getBBox().width > 0
+      && document.querySelector("#title").textContent === `frame ${n}`;
+  }, n, { timeout: 10000 }).then(() => true, () => false);
+  await sp.keyboard.press(",");
+  check(await seedOn(19), ", steps the seeding page back to frame 19");
+  await sp.keyboard.press(".");
+  check(await seedOn(20), ". steps the seeding page forward to frame 20");
   const sscale = await sp.evaluate(() => {
     const svg = document.querySelector("#stage");
     return svg.getBoundingClientRect().width / svg.viewBox.baseVal.width;

@@ -162,3 +162,81 @@ fn keys_from_the_page_merge_and_bad_or_locked_ones_touch_nothing() {
     assert_eq!((st, r["saved"].as_bool()), (200, Some(true)), "{r}");
     assert_eq!(read().iter().map(|k| k.frame).collect::<Vec<_>>(), [20]);
 }
+
+/// A hand-written `keys.toml` saved from the page, one joint moved on one frame and a key added
+/// on another: every comment stays, every other line stays byte for byte, and the file reads
+/// back to the keys meant.
+#[test]
+fn a_save_from_the_page_keeps_the_users_comments_and_layout() {
+    let (_dir, run) = tracked_walk(30, 10);
+    let srv = Served::start(&run);
+    let (_, f) = srv.json("GET", "/api/frames/4", b"");
+    let a = f["joints"][0]["name"].as_str().unwrap().to_owned();
+    let b = f["joints"][1]["name"].as_str().unwrap().to_owned();
+    let hand = format!(
+        "# My corrections of the walk.\n\n# The arm hides {a} here.\n[[key]]\nframe = 4\n\
+         {a} = [10, 20]   # eyeballed\n{b}   =   [30.5, 40.0]\n\n# {b} only\n[[key]]\n\
+         frame = 20 # slow-mo\n{b} = [11.0, 21.0]\n# end\n"
+    );
+    std::fs::write(run.join("keys.toml"), &hand).unwrap();
+    let post = |v: serde_json::Value| srv.json("POST", "/api/keys", v.to_string().as_bytes());
+    let (st, r) = post(serde_json::json!({"frame": 20, "joints": {&b: [12.5, 22]}}));
+    assert_eq!((st, r["saved"].as_bool()), (200, Some(true)), "{r}");
+    let (st, r) = post(serde_json::json!({"frame": 9, "joints": {&a: [50, 60.25]}}));
+    assert_eq!((st, r["saved"].as_bool()), (200, Some(true)), "{r}");
+    let text = std::fs::read_to_string(run.join("keys.toml")).unwrap();
+
+    let comments = |t: &str| -> Vec<String> {
+        t.lines()
+            .filter_map(|l| l.find('#').map(|i| l[i..].to_owned()))
+            .collect()
+    };
+    assert_eq!(comments(&text), comments(&hand), "{text}");
+    let moved = format!("{b} = [11.0, 21.0]");
+    let mut lines = text.lines();
+    for l in hand.lines().filter(|l| *l != moved) {
+        assert!(lines.any(|m| m == l), "{l:?} lost or moved:\n{text}");
+    }
+    assert!(
+        text.contains(&format!(
+            "[30.5, 40.0]\n\n[[key]]\nframe = 9\n{a} = [50.0, 60.25]\n\n# {b} only\n"
+        )),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!("# slow-mo\n{b} = [12.5, 22.0]\n# end\n")),
+        "{text}"
+    );
+
+    let names: Vec<String> = read_seeds(&run.join("seeds.toml"))
+        .unwrap()
+        .0
+        .joints
+        .iter()
+        .map(|j| j.name.clone())
+        .collect();
+    let keys = mocap2d::run::keys::read(&run, &names, 320, 240, Some(30)).unwrap();
+    let at = |k: &mocap2d::run::keys::Key, n: &str| {
+        k.joints[names.iter().position(|m| m == n).unwrap()].map(|p| (p.x, p.y))
+    };
+    assert_eq!(keys.iter().map(|k| k.frame).collect::<Vec<_>>(), [4, 9, 20]);
+    assert_eq!(
+        (at(&keys[0], &a), at(&keys[0], &b)),
+        (Some((10.0, 20.0)), Some((30.5, 40.0)))
+    );
+    assert_eq!(
+        (at(&keys[1], &a), at(&keys[1], &b)),
+        (Some((50.0, 60.25)), None)
+    );
+    assert_eq!(
+        (at(&keys[2], &a), at(&keys[2], &b)),
+        (None, Some((12.5, 22.0)))
+    );
+    // The same key again: not written, not a byte changed.
+    let (st, r) = post(serde_json::json!({"frame": 4, "joints": {&a: [10, 20]}}));
+    assert_eq!((st, r["saved"].as_bool()), (200, Some(false)), "{r}");
+    assert_eq!(
+        std::fs::read_to_string(run.join("keys.toml")).unwrap(),
+        text
+    );
+}

@@ -198,6 +198,16 @@ async function resumeKeyed() {
 $("#goframe").onsubmit = (ev) => { ev.preventDefault(); openFrame(Number($("#frameno").value)); };
 $("#prevframe").onclick = () => openFrame(kframe.frame - 1);
 $("#nextframe").onclick = () => openFrame(kframe.frame + 1);
+// ← → and , . step a frame back and forward, as ◀ ▶ do (not while typing in a field, nor with
+// Ctrl, Alt or Cmd held, which are the browser's).
+document.addEventListener("keydown", (ev) => {
+  if (!kframe || $("#keyeditor").hidden || ev.target.tagName === "INPUT") return;
+  if (ev.ctrlKey || ev.altKey || ev.metaKey) return;
+  const d = { ArrowLeft: -1, ",": -1, ArrowRight: 1, ".": 1 }[ev.key];
+  if (!d || kframe.frame + d < 0) return;
+  ev.preventDefault();
+  openFrame(kframe.frame + d);
+});
 $("#savekey").onclick = saveKey;
 $("#removekey").onclick = removeKey;
 $("#resumekey").onclick = resumeKeyed;

@@ -17,6 +17,15 @@ function startSeeds() {
   $("#goframe").onsubmit = (ev) => { ev.preventDefault(); seedFrame(Number($("#frameno").value)); };
   $("#seedprev").onclick = () => seedFrame(seg.frame - 1);
   $("#seednext").onclick = () => seedFrame(seg.frame + 1);
+  // , . step a frame back and forward, as ◀ ▶ do (the arrow keys nudge the selected rectangle).
+  document.addEventListener("keydown", (ev) => {
+    if ($("#editor").hidden || ev.target.tagName === "INPUT") return;
+    if (ev.ctrlKey || ev.altKey || ev.metaKey) return;
+    const d = { ",": -1, ".": 1 }[ev.key];
+    if (!d) return;
+    ev.preventDefault();
+    seedFrame(seg.frame + d);
+  });
   joints = run.joints.map((j) => ({ ...j, status: "seed", placed: run.saved }));
   if (run.saved) seedSaved = { command: run.command };
   seg = { id: null, frame: run.frame, width: run.width, height: run.height };
