@@ -259,9 +259,9 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
     let mut bg = None;
     let plate = stage("plate", reps, || {
         let t = Instant::now();
-        let (model, _) =
-            BackgroundChoice::Median.build(&clip, None, info.width, info.height, Some(&seeds))?;
-        bg = model;
+        bg = BackgroundChoice::Median
+            .build(&clip, None, info.width, info.height, Some(&seeds))?
+            .model;
         Ok((frames, t.elapsed().as_secs_f64()))
     })?;
 
@@ -359,7 +359,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
     let writing = stage("writing", reps, || {
         let t = Instant::now();
         segments::assemble_tracks(&run_dir, done.tracked_segments)?;
-        let (_, rep) = report::for_run(&run_dir, &done, &base)?;
+        let (_, rep) = report::for_run(&run_dir, &done, &base, report::SUGGESTED)?;
         std::fs::write(run_dir.join("report.md.tmp"), rep.to_markdown())?;
         std::fs::rename(run_dir.join("report.md.tmp"), run_dir.join("report.md"))?;
         done.write(&run_dir)?;

@@ -44,7 +44,9 @@ fn main() -> anyhow::Result<()> {
     let (seeds, _) = mocap2d::seed::read_seeds(&seeds_path)?;
     let mut source = decode::open(&clip, None)?;
     let (w, h) = (source.info().width, source.info().height);
-    let (bg, _) = BackgroundChoice::Median.build(&clip, None, w, h, Some(&seeds))?;
+    let bg = BackgroundChoice::Median
+        .build(&clip, None, w, h, Some(&seeds))?
+        .model;
     if let Some(b) = &bg {
         b.plate.save("/tmp/plate.png")?;
         eprintln!("clean plate saved to /tmp/plate.png");

@@ -7,11 +7,12 @@ use crate::geom::Point;
 use image::RgbImage;
 use std::path::Path;
 
+pub mod camera;
 mod choice;
 mod median;
 mod setting;
 
-pub use choice::{median_background, BackgroundChoice, BACKGROUND_SAMPLES};
+pub use choice::{median_background, BackgroundChoice, Built, BACKGROUND_SAMPLES};
 pub(crate) use setting::deserialize_either;
 pub use setting::BackgroundSetting;
 

@@ -57,8 +57,10 @@ pub fn guide(opts: &GuideOptions) -> Result<GuideSummary> {
         Some(plate) => BackgroundChoice::Plate(plate.clone()),
         None => BackgroundChoice::Median,
     };
-    let (bg, _) = choice.build(&opts.clip, opts.fps, w, h, None)?;
-    let bg = bg.expect("a median or a plate is a model");
+    let bg = choice
+        .build(&opts.clip, opts.fps, w, h, None)?
+        .model
+        .expect("a median or a plate is a model");
     let mask = guide::silhouette(&frame, &bg);
     let area = mask.pixels().filter(|p| p.0[0] != 0).count() as u64;
     if area == 0 {

@@ -186,10 +186,12 @@ pub fn track_into(
     };
     folder::check_no_corrections(&run_dir).map_err(unmake)?;
     progress.start("background", None);
-    let (background, setting) = opts
+    let built = opts
         .background
         .build(&opts.clip, opts.fps, info.width, info.height, Some(&seeds))
         .map_err(unmake)?;
+    let camera_note = built.note();
+    let (background, setting) = (built.model, built.setting);
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
     let (bytes, blake3) = hash_clip(&opts.clip).map_err(unmake)?;
@@ -283,7 +285,11 @@ pub fn track_into(
         session.manifest.write(&run_dir)?;
     }
     let mut summary = TrackSummary::new(run_dir, &session, &done);
-    summary.note = note;
+    summary.note = [note, camera_note.unwrap_or_default()]
+        .into_iter()
+        .filter(|n| !n.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ");
     if work.halvings > 0 {
         let (w, h) = (info.width >> work.halvings, info.height >> work.halvings);
         let said = format!(

@@ -2,10 +2,11 @@
 //! from the clip, and recorded in `run.toml` as a [`BackgroundSetting`] that `resume` rebuilds
 //! the same model from.
 
-use super::{Background, BackgroundSetting, Limb};
+use super::{camera, Background, BackgroundSetting, Limb};
 use crate::decode;
 use crate::error::{Error, Result};
 use crate::seed::Seeds;
+use image::RgbImage;
 use std::path::{Path, PathBuf};
 
 /// Frames sampled across the clip for the temporal-median clean plate.
@@ -34,8 +35,9 @@ impl BackgroundChoice {
     }
 
     /// Builds the model asked for, frames `width`×`height` of `clip` (read at `fps`); with
-    /// `seeds`, a median plate is cleared of the subjects that sat still on their seed frame
-    /// (see [`median_background`]). Returns it with the setting `run.toml` records.
+    /// `seeds` (for tracking), a median plate is cleared of the subjects that sat still on their
+    /// seed frame (see [`median_background`]), and none is made when the camera moves
+    /// ([`camera::check`]). Returns it with the setting `run.toml` records.
     pub fn build(
         &self,
         clip: &Path,
@@ -43,21 +45,69 @@ impl BackgroundChoice {
         width: u32,
         height: u32,
         seeds: Option<&Seeds>,
-    ) -> Result<(Option<Background>, BackgroundSetting)> {
+    ) -> Result<Built> {
+        let built = |model, setting| Built {
+            model,
+            setting,
+            camera: None,
+        };
         match self {
-            BackgroundChoice::None => Ok((None, BackgroundSetting::None)),
-            BackgroundChoice::Plate(plate) => Ok((
+            BackgroundChoice::None => Ok(built(None, BackgroundSetting::None)),
+            BackgroundChoice::Plate(plate) => Ok(built(
                 Some(Background::from_plate_file(plate, width, height)?),
                 BackgroundSetting::Plate {
                     path: plate.clone(),
                 },
             )),
-            BackgroundChoice::Median => {
-                let (bg, setting) = median_background(clip, fps, seeds)?;
-                Ok((Some(bg), setting))
-            }
+            BackgroundChoice::Median => median_unless_moving(clip, fps, seeds),
         }
     }
+}
+
+/// The background model [`BackgroundChoice::build`] made.
+#[derive(Debug, Clone)]
+pub struct Built {
+    /// The model (`None`: no subtraction).
+    pub model: Option<Background>,
+    /// What `run.toml` records (`resume` rebuilds the same model from it).
+    pub setting: BackgroundSetting,
+    /// For a median asked for tracking: how the camera check came out. When the camera
+    /// [`moves`](camera::CameraCheck::moves), there is no model.
+    pub camera: Option<camera::CameraCheck>,
+}
+
+impl Built {
+    /// What to tell the user when the camera moved and no background is subtracted.
+    pub fn note(&self) -> Option<String> {
+        let c = self.camera.filter(|c| c.moves())?;
+        Some(format!(
+            "the camera moves (the background shifts between {} of {} pairs of frames sampled \
+             across the clip), so no clean plate can be made from the clip: tracking without \
+             background subtraction; if the camera is still, give a plate with --background PLATE",
+            c.pairs - c.still,
+            c.pairs
+        ))
+    }
+}
+
+/// The median plate (for tracking, `seeds` given: only when the camera holds still).
+fn median_unless_moving(clip: &Path, fps: Option<f64>, seeds: Option<&Seeds>) -> Result<Built> {
+    let (samples, at_seed) =
+        decode::sample_frames_and(clip, BACKGROUND_SAMPLES, seeds.map(|s| s.frame))?;
+    let camera = seeds.map(|_| camera::check(&samples));
+    if camera.is_some_and(|c| c.moves()) {
+        return Ok(Built {
+            model: None,
+            setting: BackgroundSetting::None,
+            camera,
+        });
+    }
+    let (bg, setting) = median_of(clip, fps, seeds, samples, at_seed)?;
+    Ok(Built {
+        model: Some(bg),
+        setting,
+        camera,
+    })
 }
 
 impl BackgroundSetting {
@@ -115,6 +165,18 @@ pub fn median_background(
     // The seed frame comes with the sample when one sequential decode passes it.
     let (samples, at_seed) =
         decode::sample_frames_and(clip, BACKGROUND_SAMPLES, seeds.map(|s| s.frame))?;
+    median_of(clip, fps, seeds, samples, at_seed)
+}
+
+/// [`median_background`] of the samples already decoded (and the seed frame, when decoded with
+/// them).
+fn median_of(
+    clip: &Path,
+    fps: Option<f64>,
+    seeds: Option<&Seeds>,
+    samples: Vec<RgbImage>,
+    at_seed: Option<RgbImage>,
+) -> Result<(Background, BackgroundSetting)> {
     if samples.is_empty() {
         return Err(no_frames(clip));
     }

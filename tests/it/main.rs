@@ -10,6 +10,7 @@ mod common;
 mod accuracy;
 mod animate;
 mod batch;
+mod camera;
 mod cli;
 mod dance;
 mod decode;
