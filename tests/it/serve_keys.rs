@@ -109,13 +109,7 @@ fn keys_from_the_page_merge_and_bad_or_locked_ones_touch_nothing() {
     let (st, r) = post(serde_json::json!({"frame": 4, "joints": {&b: [30.5, 40]}}));
     assert_eq!(st, 200, "{r}");
     let keys_now = || std::fs::read_to_string(run.join("keys.toml")).unwrap();
-    let names: Vec<String> = read_seeds(&run.join("seeds.toml"))
-        .unwrap()
-        .0
-        .joints
-        .iter()
-        .map(|j| j.name.clone())
-        .collect();
+    let names = joint_names(&run);
     let read = || mocap2d::run::keys::read(&run, &names, 320, 240, Some(30)).unwrap();
     let keys = read();
     assert_eq!(keys.iter().map(|k| k.frame).collect::<Vec<_>>(), [4, 20]);
@@ -208,13 +202,7 @@ fn a_save_from_the_page_keeps_the_users_comments_and_layout() {
         "{text}"
     );
 
-    let names: Vec<String> = read_seeds(&run.join("seeds.toml"))
-        .unwrap()
-        .0
-        .joints
-        .iter()
-        .map(|j| j.name.clone())
-        .collect();
+    let names = joint_names(&run);
     let keys = mocap2d::run::keys::read(&run, &names, 320, 240, Some(30)).unwrap();
     let at = |k: &mocap2d::run::keys::Key, n: &str| {
         k.joints[names.iter().position(|m| m == n).unwrap()].map(|p| (p.x, p.y))
@@ -239,4 +227,15 @@ fn a_save_from_the_page_keeps_the_users_comments_and_layout() {
         std::fs::read_to_string(run.join("keys.toml")).unwrap(),
         text
     );
+}
+
+/// The joints of the run in `run`, in seed-file order.
+fn joint_names(run: &std::path::Path) -> Vec<String> {
+    read_seeds(&run.join("seeds.toml"))
+        .unwrap()
+        .0
+        .joints
+        .iter()
+        .map(|j| j.name.clone())
+        .collect()
 }

@@ -4,11 +4,15 @@ fn flat(frames: u64, n: f32) -> Vec<(u64, f32)> {
     (0..frames).map(|f| (f, n)).collect()
 }
 
-/// Gaps between consecutive keys, the seed's included, and the stretch after the last.
-fn gaps(mut keys: Vec<u64>, frames: u64) -> (Vec<u64>, u64) {
+/// The gaps between consecutive keys (the seed on frame 0 with the suggested ones), their mean,
+/// and the stretch after the last key.
+fn gaps(suggested: &[u64], frames: u64) -> (Vec<u64>, f64, u64) {
+    let mut keys = suggested.to_vec();
+    keys.push(0);
     keys.sort_unstable();
-    let inner = keys.windows(2).map(|w| w[1] - w[0]).collect();
-    (inner, frames - 1 - keys[keys.len() - 1])
+    let inner: Vec<u64> = keys.windows(2).map(|w| w[1] - w[0]).collect();
+    let mean = inner.iter().sum::<u64>() as f64 / inner.len() as f64;
+    (inner, mean, frames - 1 - keys[keys.len() - 1])
 }
 
 #[test]
@@ -19,10 +23,7 @@ fn a_tracker_lost_all_along_gets_evenly_spaced_keys() {
         .collect();
     let s = suggest(&need, &[0], 9);
     assert_eq!(s.len(), 9);
-    let mut all = s.clone();
-    all.push(0);
-    let (inner, tail) = gaps(all, 450);
-    let mean = inner.iter().sum::<u64>() as f64 / inner.len() as f64;
+    let (inner, mean, tail) = gaps(&s, 450);
     for g in &inner {
         assert!(
             (*g as f64) > 0.75 * mean && (*g as f64) < 1.25 * mean,
@@ -102,10 +103,7 @@ fn a_long_clip_is_searched_in_cells() {
     let need = flat(18_000, 2.0);
     let s = suggest(&need, &[0], 10);
     assert_eq!(s.len(), 10);
-    let mut all = s.clone();
-    all.push(0);
-    let (inner, _) = gaps(all, 18_000);
-    let mean = inner.iter().sum::<u64>() as f64 / inner.len() as f64;
+    let (inner, mean, _) = gaps(&s, 18_000);
     assert!(
         inner.iter().all(|&g| (g as f64 - mean).abs() < 0.2 * mean),
         "{s:?}"
