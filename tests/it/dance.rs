@@ -254,3 +254,76 @@ fn the_root_of_the_skeleton_does_not_change_the_uncorrected_dance() {
     assert!(lo >= 0.285, "{scores:?}");
     assert!(hi - lo <= 0.02, "{scores:?}");
 }
+
+/// The dance seen through a window that pans (366×716 of its 406×720, moving up to 40 px across
+/// and 4 px down, as a camera on a slow pan would): the median of such a clip is a smear, so
+/// `track` finds that the camera moves and tracks without a plate (docs/method.md §1).
+#[test]
+#[ignore = "long clip: run with cargo test --release --test it dance:: -- --ignored"]
+fn a_panned_dance_is_tracked_without_its_smeared_plate() {
+    let Some(dir) = dance() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let off = |n: u64| {
+        let n = n as f64;
+        (
+            (20.0 + 20.0 * (2.0 * std::f64::consts::PI * n / 150.0).sin()).round() as f32,
+            (2.0 - 2.0 * (2.0 * std::f64::consts::PI * n / 200.0).cos()).round() as f32,
+        )
+    };
+    let clip = tmp.path().join("panned.mp4");
+    let o = Command::new("ffmpeg")
+        .args(["-v", "error", "-i"])
+        .arg(dir.join("clip.mp4"))
+        .args([
+            "-an",
+            "-vf",
+            "crop=366:716:'round(20+20*sin(2*PI*n/150))':'round(2-2*cos(2*PI*n/200))'",
+            "-c:v",
+            "libx264",
+            "-crf",
+            "18",
+        ])
+        .arg(&clip)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The seed file and the labels moved with the window.
+    let (ox, oy) = off(0);
+    let seeds_text: String = std::fs::read_to_string(dir.join("joints.toml"))
+        .unwrap()
+        .lines()
+        .map(|l| match l.split_once(" = ") {
+            Some(("x", v)) => format!("x = {}\n", v.parse::<f32>().unwrap() - ox),
+            Some(("y", v)) => format!("y = {}\n", v.parse::<f32>().unwrap() - oy),
+            _ => format!("{l}\n"),
+        })
+        .collect();
+    let seeds = tmp.path().join("joints.toml");
+    std::fs::write(&seeds, seeds_text).unwrap();
+    let run = tmp.path().join("run");
+    let opts = TrackOptions {
+        out: Some(run.clone()),
+        ..TrackOptions::new(clip, seeds)
+    };
+    let summary = track(&opts, &NoProgress).unwrap();
+    assert!(
+        summary.note.contains("the camera moves"),
+        "{}",
+        summary.note
+    );
+    let gt = labels(&dir);
+    let (mut n, mut hit) = (0usize, 0usize);
+    for r in read_tracks(&run.join("tracks.csv")).unwrap() {
+        if let Some(g) = gt.get(&(r.frame, r.joint.clone())) {
+            let (dx, dy) = off(r.frame);
+            n += 1;
+            hit += ((r.x - (g.0 - dx)).hypot(r.y - (g.1 - dy)) <= 20.0) as usize;
+        }
+    }
+    let pck = hit as f64 / n as f64;
+    println!("panned dance, PCK@20 over the seeded joints: {pck:.3}");
+    // Measured: 26.2 % (`eval`, counting the unseeded right ankle as misses: 24.6 %). With the
+    // clip's median plate, as before the camera check, `eval` gave 16.9 %; the still dance
+    // without a plate 23.2 % (docs/NOTES.md, "a camera that moves").
+    assert!(pck >= 0.255, "{pck}");
+}
