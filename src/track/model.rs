@@ -40,9 +40,10 @@ pub(super) fn pyramid_levels(side: f32, coarse_px: f32) -> usize {
 }
 
 /// Half-width (px) of the limb along the bone `p → c` on the seed frame: the median distance
-/// from the axis to the first pixel `background` says is background, across the bone at a
-/// quarter, half and three quarters of its length, both sides; at most `max`.
-fn limb_radius(p: Point, c: Point, max: f32, background: &dyn Fn(f32, f32) -> bool) -> f32 {
+/// from the axis to the first pixel `q` that `background(o, q)` says is not the limb (`o` the
+/// axis point it is measured from), across the bone at a quarter, half and three quarters of
+/// its length, both sides; at most `max`.
+fn limb_radius(p: Point, c: Point, max: f32, background: &dyn Fn(Point, Point) -> bool) -> f32 {
     let d = c - p;
     let len = d.norm().max(1e-3);
     let n = Vector::new(-d.y, d.x) / len;
@@ -53,7 +54,7 @@ fn limb_radius(p: Point, c: Point, max: f32, background: &dyn Fn(f32, f32) -> bo
             let mut v = 0.5;
             while v < max {
                 let q = o + n * (side * v);
-                if background(q.x, q.y) {
+                if background(o, q) {
                     break;
                 }
                 v += 0.5;
@@ -63,6 +64,25 @@ fn limb_radius(p: Point, c: Point, max: f32, background: &dyn Fn(f32, f32) -> bo
     }
     edges.sort_by(f32::total_cmp);
     0.5 * (edges[2] + edges[3])
+}
+
+/// Without a clean plate, a limb's edge on the seed frame is the first pixel across the bone
+/// whose colour differs from the axis's by more than this (L1 over the three channels, 0–765):
+/// a clear step, 30 levels a channel. Without it, every strip of a run with no plate spanned
+/// half its rectangle whatever the limb's width, and took the background beside a thin limb
+/// for the limb (docs/NOTES.md, "Limbs measured by their edges").
+const LIMB_EDGE_L1: u32 = 90;
+
+/// The L1 colour distance between the seed frame's pixels nearest `a` and `b` (`None` when
+/// either is outside the frame).
+fn colour_step(frame: &RgbImage, a: Point, b: Point) -> Option<u32> {
+    let px = |q: Point| {
+        let (x, y) = (q.x.round(), q.y.round());
+        (x >= 0.0 && y >= 0.0 && (x as u32) < frame.width() && (y as u32) < frame.height())
+            .then(|| frame.get_pixel(x as u32, y as u32).0)
+    };
+    let (ca, cb) = (px(a)?, px(b)?);
+    Some((0..3).map(|k| ca[k].abs_diff(cb[k]) as u32).sum())
 }
 
 impl Model {
@@ -113,7 +133,16 @@ impl Model {
             .iter()
             .map(|&(p, c)| {
                 let max_half = params.bone_half_width * boxes[c].w.min(boxes[c].h) as f32;
-                let r = limb_radius(centres[p], centres[c], max_half, &looks_background);
+                // The limb ends where the plate shows; with no plate, where the colour steps
+                // away from the axis's.
+                let r = match background {
+                    Some(_) => limb_radius(centres[p], centres[c], max_half, &|_, q| {
+                        looks_background(q.x, q.y)
+                    }),
+                    None => limb_radius(centres[p], centres[c], max_half, &|o, q| {
+                        colour_step(seed_frame, o, q).is_none_or(|d| d > LIMB_EDGE_L1)
+                    }),
+                };
                 let reach = r + params.edge_margin_px;
                 let root = sk.parents[p].is_none();
                 Extent {
@@ -225,5 +254,25 @@ mod tests {
         assert_eq!(pyramid_levels(21.0, 5.0), 3);
         assert_eq!(pyramid_levels(43.0, 5.0), 4);
         assert_eq!(pyramid_levels(400.0, 5.0), MAX_LEVELS);
+    }
+
+    #[test]
+    fn without_a_plate_a_limb_ends_where_its_colour_steps() {
+        // A vertical bar 9 px wide (x 46..=54), red on grey, with a faint texture inside.
+        let frame = RgbImage::from_fn(100, 100, |x, y| {
+            if (46..=54).contains(&x) {
+                image::Rgb([200, 40 + ((x + y) % 3) as u8 * 5, 40])
+            } else {
+                image::Rgb([120, 120, 120])
+            }
+        });
+        let (p, c) = (Point::new(50.0, 20.0), Point::new(50.0, 80.0));
+        let edge = |o: Point, q: Point| colour_step(&frame, o, q).is_none_or(|d| d > LIMB_EDGE_L1);
+        // 4.5 px to the last red pixel on one side, 5 on the other (probes every half pixel).
+        assert_eq!(limb_radius(p, c, 20.0, &edge), 4.75);
+        // Where nothing steps, the limb spans its whole allowance, as with no test at all.
+        let flat = RgbImage::from_pixel(100, 100, image::Rgb([120, 120, 120]));
+        let none = |o: Point, q: Point| colour_step(&flat, o, q).is_none_or(|d| d > LIMB_EDGE_L1);
+        assert_eq!(limb_radius(p, c, 20.0, &none), 20.0);
     }
 }
