@@ -322,8 +322,9 @@ fn a_panned_dance_is_tracked_without_its_smeared_plate() {
     }
     let pck = hit as f64 / n as f64;
     println!("panned dance, PCK@20 over the seeded joints: {pck:.3}");
-    // Measured: 26.2 % (`eval`, counting the unseeded right ankle as misses: 24.6 %). With the
-    // clip's median plate, as before the camera check, `eval` gave 16.9 %; the still dance
-    // without a plate 23.2 % (docs/NOTES.md, "a camera that moves").
-    assert!(pck >= 0.255, "{pck}");
+    // Measured: 26.6 % (`eval`, counting the unseeded right ankle as misses: 25.0 %). With the
+    // clip's median plate, as before the camera check, `eval` gave 16.9 %; without a plate
+    // before limbs were measured by their edges, 24.6 % (docs/NOTES.md, "a camera that
+    // moves" and "limbs measured by their edges").
+    assert!(pck >= 0.26, "{pck}");
 }
