@@ -449,6 +449,6 @@ fn walk_without_a_plate_is_tracked() {
     println!("walk seed 1, no plate: {line}");
     let (median, pck5) = parse_line(line);
     // Measured: PCK@5 99.9 %, median 0.09 px (with its plate 100.0 %); before the edges were
-    // used, 69.1 %, the far arm's strips spanning the wall beside it.
+    // used, 69.1 %.
     assert!(pck5 >= 0.99 && median <= 0.15, "{line}");
 }
