@@ -37,7 +37,8 @@ impl BackgroundChoice {
     /// Builds the model asked for, frames `width`×`height` of `clip` (read at `fps`); with
     /// `seeds` (for tracking), a median plate is cleared of the subjects that sat still on their
     /// seed frame (see [`median_background`]), and none is made when the camera moves
-    /// ([`camera::check`]). Returns it with the setting `run.toml` records.
+    /// ([`camera::check`]; without `seeds` the median is made and the check only reported).
+    /// Returns it with the setting `run.toml` records.
     pub fn build(
         &self,
         clip: &Path,
@@ -71,8 +72,8 @@ pub struct Built {
     pub model: Option<Background>,
     /// What `run.toml` records (`resume` rebuilds the same model from it).
     pub setting: BackgroundSetting,
-    /// For a median asked for tracking: how the camera check came out. When the camera
-    /// [`moves`](camera::CameraCheck::moves), there is no model.
+    /// For a median: how the camera check came out. When the camera
+    /// [`moves`](camera::CameraCheck::moves) and the model is for tracking, there is none.
     pub camera: Option<camera::CameraCheck>,
 }
 
@@ -90,12 +91,13 @@ impl Built {
     }
 }
 
-/// The median plate (for tracking, `seeds` given: only when the camera holds still).
+/// The median plate (for tracking, `seeds` given: only when the camera holds still), with the
+/// camera check.
 fn median_unless_moving(clip: &Path, fps: Option<f64>, seeds: Option<&Seeds>) -> Result<Built> {
     let (samples, at_seed) =
         decode::sample_frames_and(clip, BACKGROUND_SAMPLES, seeds.map(|s| s.frame))?;
-    let camera = seeds.map(|_| camera::check(&samples));
-    if camera.is_some_and(|c| c.moves()) {
+    let camera = Some(camera::check(&samples));
+    if seeds.is_some() && camera.is_some_and(|c| c.moves()) {
         return Ok(Built {
             model: None,
             setting: BackgroundSetting::None,

@@ -72,3 +72,15 @@ fn a_panning_camera_is_tracked_without_a_plate_and_a_still_one_with() {
         assert!(!stderr(&o).contains("the camera moves"), "{}", stderr(&o));
     }
 }
+
+/// `guide` draws the silhouette against the clip's median: with a camera that moves it says so
+/// (exit 2) instead of drawing a wrong one.
+#[test]
+fn guide_refuses_a_clip_whose_camera_moves() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (frames, _) = clip(tmp.path(), 9);
+    let out = tmp.path().join("guide.png");
+    let o = run(&["guide", s(&frames), "--out", s(&out)]);
+    assert_fails(&o, 2, &["the camera moves", "--background PLATE", "serve"]);
+    assert!(!out.exists());
+}
