@@ -85,14 +85,19 @@ impl Cells {
         let size = frames.div_ceil(MAX_CELLS);
         let count = frames.div_ceil(size);
         let floor = QUIET_NEED * total / frames as f64;
-        let mut weight = vec![0.0f64; count];
-        let mut mid = Vec::with_capacity(count);
-        for c in 0..count {
-            let lo = c * size;
-            let hi = ((c + 1) * size).min(frames);
-            weight[c] = floor * (hi - lo) as f64;
-            mid.push(first + ((lo + hi - 1) / 2) as u64);
-        }
+        let bounds = |c: usize| (c * size, ((c + 1) * size).min(frames));
+        let mut weight: Vec<f64> = (0..count)
+            .map(|c| {
+                let (lo, hi) = bounds(c);
+                floor * (hi - lo) as f64
+            })
+            .collect();
+        let mid: Vec<u64> = (0..count)
+            .map(|c| {
+                let (lo, hi) = bounds(c);
+                first + ((lo + hi - 1) / 2) as u64
+            })
+            .collect();
         for &(f, n) in need {
             if (first..=last).contains(&f) {
                 weight[(f - first) as usize / size] += n.max(0.0) as f64;
