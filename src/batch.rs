@@ -225,6 +225,7 @@ fn process_clip(
         frames: None,
         track_seconds: None,
         flagged_segments: None,
+        note: String::new(),
         status: Status::Skipped,
     };
     let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -310,6 +311,7 @@ fn stages(
                 None => app::track_into(&track, app::OtherClip::Replace, progress)?,
             };
             outcome.frames = Some(s.tracked_frames);
+            outcome.note = s.note.clone();
             if fresh {
                 outcome.track_seconds = Some(start.elapsed().as_secs_f64());
             }

@@ -41,6 +41,9 @@ pub struct ClipOutcome {
     pub track_seconds: Option<f64>,
     /// Flagged segments of the run, from [`flagged_segments_hook`].
     pub flagged_segments: Option<usize>,
+    /// What `track` told the user about the clip (a camera that moves, frames tracked halved),
+    /// or empty.
+    pub note: String,
     pub status: Status,
 }
 
@@ -123,8 +126,8 @@ fn cell<T: ToString>(v: Option<T>) -> String {
     v.map(|v| v.to_string()).unwrap_or_default()
 }
 
-/// The summary table (columns clip, frames, frames/s, [flagged segments,] status) and a last
-/// line with the counts, as text.
+/// The summary table (columns clip, frames, frames/s, [flagged segments,] status), a line per
+/// clip with a note (`note: CLIP: …`), and a last line with the counts, as text.
 pub fn table(outcomes: &[ClipOutcome]) -> String {
     let segments = has_segments(outcomes);
     let mut rows: Vec<Vec<String>> = vec![["clip", "frames", "frames/s"]
@@ -165,6 +168,9 @@ pub fn table(outcomes: &[ClipOutcome]) -> String {
         out.push_str(cells.join("  ").trim_end());
         out.push('\n');
     }
+    for o in outcomes.iter().filter(|o| !o.note.is_empty()) {
+        out.push_str(&format!("note: {}: {}\n", o.clip.display(), o.note));
+    }
     let count = |w: &str| outcomes.iter().filter(|o| o.status.word() == w).count();
     out.push_str(&format!(
         "{} clip{}: {} done, {} skipped, {} failed\n",
@@ -178,13 +184,18 @@ pub fn table(outcomes: &[ClipOutcome]) -> String {
 }
 
 /// Writes `batch-summary.csv` atomically: `clip,run,frames,frames_per_s,status,error` (and
-/// `flagged_segments` when there is segment data), one row per clip in the batch's order.
+/// `flagged_segments` when there is segment data, `note` when a clip has one), one row per
+/// clip in the batch's order.
 pub fn write_csv(path: &Path, outcomes: &[ClipOutcome]) -> Result<()> {
     let segments = has_segments(outcomes);
     let mut w = csv::Writer::from_writer(Vec::new());
     let mut header = vec!["clip", "run", "frames", "frames_per_s", "status", "error"];
     if segments {
         header.push("flagged_segments");
+    }
+    let notes = outcomes.iter().any(|o| !o.note.is_empty());
+    if notes {
+        header.push("note");
     }
     let io = |e: csv::Error| Error::io(path, std::io::Error::other(e));
     w.write_record(&header).map_err(io)?;
@@ -203,6 +214,9 @@ pub fn write_csv(path: &Path, outcomes: &[ClipOutcome]) -> Result<()> {
         ];
         if segments {
             r.push(cell(o.flagged_segments));
+        }
+        if notes {
+            r.push(o.note.clone());
         }
         w.write_record(&r).map_err(io)?;
     }
@@ -223,6 +237,7 @@ mod tests {
             frames: Some(30),
             track_seconds: Some(2.0),
             flagged_segments: None,
+            note: String::new(),
             status,
         }
     }
@@ -271,5 +286,33 @@ mod tests {
         assert!(t.contains("a.mp4      30      15.0  done\n"), "{t}");
         rows[0].flagged_segments = Some(3);
         assert!(table(&rows).contains("flagged segments"));
+    }
+
+    #[test]
+    fn what_track_said_of_a_clip_is_in_the_table_and_the_csv() {
+        let mut rows = vec![
+            outcome("a.mp4", Status::Done),
+            outcome("b.mp4", Status::Done),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let csv_path = dir.path().join("batch-summary.csv");
+        write_csv(&csv_path, &rows).unwrap();
+        let text = std::fs::read_to_string(&csv_path).unwrap();
+        assert!(
+            !text.contains("note") && !table(&rows).contains("note"),
+            "{text}"
+        );
+        rows[1].note = "the camera moves, so no clean plate".into();
+        let t = table(&rows);
+        assert!(
+            t.contains("\nnote: b.mp4: the camera moves, so no clean plate\n"),
+            "{t}"
+        );
+        write_csv(&csv_path, &rows).unwrap();
+        let mut r = csv::Reader::from_path(&csv_path).unwrap();
+        let header = r.headers().unwrap().clone();
+        assert_eq!(header.iter().last(), Some("note"));
+        let notes: Vec<String> = r.records().map(|x| x.unwrap()[6].to_string()).collect();
+        assert_eq!(notes, ["", "the camera moves, so no clean plate"]);
     }
 }
