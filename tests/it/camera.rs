@@ -84,3 +84,30 @@ fn guide_refuses_a_clip_whose_camera_moves() {
     assert_fails(&o, 2, &["the camera moves", "--background PLATE", "serve"]);
     assert!(!out.exists());
 }
+
+/// A batch says which of its clips were tracked without a plate, in its table and its CSV.
+#[test]
+fn a_batch_notes_the_clip_whose_camera_moves() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (frames, seeds) = clip(tmp.path(), 9);
+    let summary = tmp.path().join("summary.csv");
+    let o = run(&[
+        "batch",
+        s(&frames),
+        "--seeds",
+        s(&seeds),
+        "--summary",
+        s(&summary),
+        "-q",
+    ]);
+    assert_exit(&o, 0);
+    let out = stdout(&o);
+    assert!(
+        out.contains(&format!("note: {}: the camera moves", frames.display())),
+        "{out}"
+    );
+    let csv = std::fs::read_to_string(&summary).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(header.ends_with(",note"), "{csv}");
+    assert!(csv.contains("the camera moves"), "{csv}");
+}
