@@ -100,7 +100,7 @@ fn median_unless_moving(clip: &Path, fps: Option<f64>, seeds: Option<&Seeds>) ->
     if seeds.is_some() && camera.is_some_and(|c| c.moves()) {
         return Ok(Built {
             model: None,
-            setting: BackgroundSetting::None,
+            setting: BackgroundSetting::MovingCamera,
             camera,
         });
     }
@@ -124,7 +124,7 @@ impl BackgroundSetting {
         seeds: &Seeds,
     ) -> Result<Option<Background>> {
         Ok(match self {
-            BackgroundSetting::None => None,
+            BackgroundSetting::None | BackgroundSetting::MovingCamera => None,
             BackgroundSetting::Plate { path } => {
                 Some(Background::from_plate_file(path, width, height)?)
             }
@@ -137,10 +137,12 @@ impl BackgroundSetting {
     }
 
     /// True when a run with this setting used the model `choice` asks for. A plate is never
-    /// taken for the same: its file may have changed since.
+    /// taken for the same: its file may have changed since. A median asked for a clip whose
+    /// camera moved is answered by the run made without one (the check decides the same again).
     pub fn answers(&self, choice: &BackgroundChoice) -> bool {
         match (self, choice) {
             (BackgroundSetting::None, BackgroundChoice::None) => true,
+            (BackgroundSetting::MovingCamera, BackgroundChoice::Median) => true,
             (BackgroundSetting::Median { rest, .. }, BackgroundChoice::Median) => *rest,
             _ => false,
         }

@@ -1,5 +1,5 @@
 //! The background model a run used, as `run.toml` records it: a typed `[background]` table
-//! (`kind = "median"`, `"plate"` or `"none"`), read back as it was written. Run folders of
+//! (`kind = "median"`, `"plate"`, `"none"` or `"moving-camera"`), read back as it was written. Run folders of
 //! mocap2d before it hold a string (`median:N,rest`, `median:N`, `plate:PATH`, `none`), still
 //! read; the string form is also what the manifest's config hash covers, so a run's hash is the
 //! same in either form.
@@ -16,6 +16,10 @@ use std::str::FromStr;
 pub enum BackgroundSetting {
     /// No background subtraction (`--no-background`).
     None,
+    /// No background subtraction because the camera moves: a median was asked for, and the
+    /// camera check found the clip's background shifting ([`super::camera`]).
+    #[serde(rename = "moving-camera")]
+    MovingCamera,
     /// A clean plate read from a file (`--background PLATE`).
     Plate {
         #[serde(serialize_with = "path_text")]
@@ -37,6 +41,7 @@ impl fmt::Display for BackgroundSetting {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             BackgroundSetting::None => write!(f, "none"),
+            BackgroundSetting::MovingCamera => write!(f, "moving-camera"),
             BackgroundSetting::Plate { path } => write!(f, "plate:{}", path.display()),
             BackgroundSetting::Median { samples, rest } => {
                 write!(f, "median:{samples}{}", if *rest { ",rest" } else { "" })
@@ -51,6 +56,9 @@ impl FromStr for BackgroundSetting {
     fn from_str(s: &str) -> Result<Self, String> {
         if s == "none" {
             return Ok(BackgroundSetting::None);
+        }
+        if s == "moving-camera" {
+            return Ok(BackgroundSetting::MovingCamera);
         }
         if let Some(path) = s.strip_prefix("plate:") {
             return Ok(BackgroundSetting::Plate { path: path.into() });
@@ -78,7 +86,10 @@ pub(crate) fn deserialize_either<'de, D: Deserializer<'de>>(
     impl<'de> Visitor<'de> for Either {
         type Value = BackgroundSetting;
         fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            f.write_str("a [background] table with kind = \"median\", \"plate\" or \"none\"")
+            f.write_str(
+                "a [background] table with kind = \"median\", \"plate\", \"none\" or \
+                 \"moving-camera\"",
+            )
         }
         fn visit_str<E: de::Error>(self, s: &str) -> Result<BackgroundSetting, E> {
             s.parse().map_err(E::custom)
@@ -104,6 +115,7 @@ mod tests {
     fn the_table_round_trips_and_the_string_form_still_reads() {
         let all = [
             BackgroundSetting::None,
+            BackgroundSetting::MovingCamera,
             BackgroundSetting::Plate {
                 path: "clips/walk/background.png".into(),
             },

@@ -61,7 +61,7 @@ fn a_panning_camera_is_tracked_without_a_plate_and_a_still_one_with() {
         let said = stderr(&o).contains("the camera moves");
         assert_eq!(said, moves, "pan {pan}: {}", stderr(&o));
         let manifest = std::fs::read_to_string(out.join("run.toml")).unwrap();
-        let kind = if moves { "none" } else { "median" };
+        let kind = if moves { "moving-camera" } else { "median" };
         assert!(
             manifest.contains(&format!("kind = \"{kind}\"")),
             "pan {pan}: {manifest}"
@@ -110,4 +110,17 @@ fn a_batch_notes_the_clip_whose_camera_moves() {
     let header = csv.lines().next().unwrap();
     assert!(header.ends_with(",note"), "{csv}");
     assert!(csv.contains("the camera moves"), "{csv}");
+    // Run again, the clip is finished: skipped, not tracked again for want of a plate.
+    let again = [
+        "batch",
+        s(&frames),
+        "--seeds",
+        s(&seeds),
+        "--summary",
+        s(&summary),
+        "-q",
+    ];
+    let o = run(&again);
+    assert_exit(&o, 0);
+    assert!(stdout(&o).contains("1 skipped"), "{}", stdout(&o));
 }
