@@ -91,7 +91,7 @@ fn a_batch_notes_the_clip_whose_camera_moves() {
     let tmp = tempfile::tempdir().unwrap();
     let (frames, seeds) = clip(tmp.path(), 9);
     let summary = tmp.path().join("summary.csv");
-    let o = run(&[
+    let batch = [
         "batch",
         s(&frames),
         "--seeds",
@@ -99,7 +99,8 @@ fn a_batch_notes_the_clip_whose_camera_moves() {
         "--summary",
         s(&summary),
         "-q",
-    ]);
+    ];
+    let o = run(&batch);
     assert_exit(&o, 0);
     let out = stdout(&o);
     assert!(
@@ -111,16 +112,7 @@ fn a_batch_notes_the_clip_whose_camera_moves() {
     assert!(header.ends_with(",note"), "{csv}");
     assert!(csv.contains("the camera moves"), "{csv}");
     // Run again, the clip is finished: skipped, not tracked again for want of a plate.
-    let again = [
-        "batch",
-        s(&frames),
-        "--seeds",
-        s(&seeds),
-        "--summary",
-        s(&summary),
-        "-q",
-    ];
-    let o = run(&again);
+    let o = run(&batch);
     assert_exit(&o, 0);
     assert!(stdout(&o).contains("1 skipped"), "{}", stdout(&o));
 }
