@@ -144,7 +144,21 @@ impl Api {
         (ok, bad)
     }
 
-    /// `GET /api/run`: frame size, joints, and the segments with their flags.
+    /// The frames worth keying next, as `report.md` names them (none while the run is not
+    /// complete or its report cannot be made).
+    fn suggested(&self) -> Vec<u64> {
+        crate::run::report::for_run(
+            &self.data.dir,
+            &self.data.manifest,
+            &self.data.seeds,
+            crate::run::report::SUGGESTED,
+        )
+        .map(|(_, r)| r.suggested)
+        .unwrap_or_default()
+    }
+
+    /// `GET /api/run`: frame size, joints, the segments with their flags, and the frames worth
+    /// keying next.
     pub fn run_info(&self) -> Reply {
         let (segs, bad) = self.listing();
         let list: Vec<Value> = segs
@@ -178,6 +192,7 @@ impl Api {
                 "resume": self.resume.is_some(),
                 "seed_frame": m.seed_frame, "segment_len": m.segment_len,
                 "first": self.data.first, "end": self.data.end(),
+                "suggested": self.suggested(),
             }),
         )
     }

@@ -165,6 +165,17 @@ try {
   await page.screenshot({ path: shot, fullPage: true });
   console.log(`screenshot: ${shot}`);
 
+  // The frames worth keying, as the report names them: each a button that opens the frame.
+  const worth = await page.$$eval("#worth button", (bs) => bs.map((b) => Number(b.textContent)));
+  check(worth.length > 0 && !(await page.isHidden("#worth")), `frames worth keying listed: ${worth.join(", ")}`);
+  if (worth.length > 0) {
+    await page.click("#worth button");
+    const opened = await page.waitForFunction((n) => new RegExp(`^frame ${n}\\b`)
+      .test(document.querySelector("#ktitle").textContent), worth[0], { timeout: 10000 })
+      .then(() => true, () => false);
+    check(opened, `the first of them (frame ${worth[0]}) opens in the key editor`);
+  }
+
   // A key on any frame: go to frame 12, drag the left knee, save the key.
   await page.fill("#frameno", "12");
   await page.click("#go");

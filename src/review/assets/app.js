@@ -37,6 +37,7 @@ async function loadRun() {
   const r = await call("/api/run");
   if (!r.ok) { say(r.body ? r.body.error : "cannot read the run", "error"); return; }
   run = r.body;
+  if (typeof renderWorth === "function") renderWorth();
   const frames = run.frames == null ? "" : `, ${run.frames} frames`;
   $("#run").textContent = `${run.run}  (${run.width}×${run.height}${frames})`;
   renderList();

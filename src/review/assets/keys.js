@@ -208,6 +208,21 @@ document.addEventListener("keydown", (ev) => {
   ev.preventDefault();
   openFrame(kframe.frame + d);
 });
+// The frames the report says are worth keying next (most worth first), each a button to it.
+function renderWorth() {
+  const box = $("#worth");
+  const list = box.querySelector("span");
+  list.textContent = "";
+  for (const f of run.suggested || []) {
+    const b = document.createElement("button");
+    b.type = "button";
+    b.textContent = f;
+    b.title = `open frame ${f}`;
+    b.onclick = () => openFrame(f);
+    list.appendChild(b);
+  }
+  box.hidden = list.childElementCount === 0;
+}
 $("#savekey").onclick = saveKey;
 $("#removekey").onclick = removeKey;
 $("#resumekey").onclick = resumeKeyed;
