@@ -114,6 +114,36 @@ impl Seeds {
         self.joints.iter().map(|j| j.bbox).collect()
     }
 
+    /// What to tell the user of joints placed on top of their parent: closer to it than half
+    /// their rectangle's smaller side, a bone too short to show where the joint is (the dance's
+    /// seed file puts the left ankle 4 px from the knee, and the ankle then follows the knee,
+    /// called `ok`). Empty when there are none.
+    pub fn crowding_note(&self) -> String {
+        let boxes = self.boxes();
+        let crowded: Vec<String> = (0..self.joints.len())
+            .filter_map(|j| {
+                let p = self.skeleton.parents[j]?;
+                let d = (boxes[j].centre() - boxes[p].centre()).norm();
+                let side = boxes[j].w.min(boxes[j].h) as f32;
+                (d < 0.5 * side).then(|| {
+                    format!(
+                        "{} is {d:.1} px from its parent {}",
+                        self.joints[j].name, self.joints[p].name
+                    )
+                })
+            })
+            .collect();
+        if crowded.is_empty() {
+            return String::new();
+        }
+        format!(
+            "{} (closer than half its rectangle): a bone that short cannot show where the joint \
+             is, so it follows its parent; place it where it is on the seed frame, or seed on a \
+             frame where it shows",
+            crowded.join(", ")
+        )
+    }
+
     /// Checks the seeds against a clip of `width × height` px and `frame_count` frames (`None`
     /// when unknown): the seed frame must be in the clip and every rectangle (unrotated, see
     /// [`JointBox::inside`]) fully inside the frame. `path` is the seed file, for messages.

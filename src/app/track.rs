@@ -191,6 +191,7 @@ pub fn track_into(
         .build(&opts.clip, opts.fps, info.width, info.height, Some(&seeds))
         .map_err(unmake)?;
     let camera_note = built.note();
+    let crowding = seeds.crowding_note();
     let (background, setting) = (built.model, built.setting);
     let threshold = background.as_ref().map_or(0, |b| b.threshold);
     progress.finish();
@@ -285,7 +286,7 @@ pub fn track_into(
         session.manifest.write(&run_dir)?;
     }
     let mut summary = TrackSummary::new(run_dir, &session, &done);
-    summary.note = [note, camera_note.unwrap_or_default()]
+    summary.note = [note, crowding, camera_note.unwrap_or_default()]
         .into_iter()
         .filter(|n| !n.is_empty())
         .collect::<Vec<_>>()

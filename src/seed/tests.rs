@@ -145,3 +145,18 @@ fn to_toml_round_trips() {
     }
     assert_eq!(to_toml(7, &back.joints, "segment 2\n\nframes 7..20"), text);
 }
+
+#[test]
+fn a_joint_seeded_on_top_of_its_parent_is_named() {
+    // ARM's hand is 28 px from the elbow, its rectangle 7 px: fine.
+    assert_eq!(parse(ARM).unwrap().crowding_note(), "");
+    // Moved to 3 px from the elbow (less than half its 7 px side).
+    let crowded = ARM
+        .replace("x = 10\n", "x = 28\n")
+        .replace("y = 20.5\n", "y = 38.5\n");
+    let note = parse(&crowded).unwrap().crowding_note();
+    assert!(
+        note.starts_with("hand is 2.7 px from its parent elbow (closer than half"),
+        "{note}"
+    );
+}
