@@ -114,8 +114,8 @@ impl Seeds {
         self.joints.iter().map(|j| j.bbox).collect()
     }
 
-    /// What to tell the user of joints placed on top of their parent: closer to it than half
-    /// their rectangle's smaller side, a bone too short to show where the joint is (the dance's
+    /// What to tell the user of joints placed on top of their parent: closer to it than a quarter
+    /// of their rectangle's smaller side, a bone too short to show where the joint is (the dance's
     /// seed file puts the left ankle 4 px from the knee, and the ankle then follows the knee,
     /// called `ok`). Empty when there are none.
     pub fn crowding_note(&self) -> String {
@@ -125,7 +125,7 @@ impl Seeds {
                 let p = self.skeleton.parents[j]?;
                 let d = (boxes[j].centre() - boxes[p].centre()).norm();
                 let side = boxes[j].w.min(boxes[j].h) as f32;
-                (d < 0.5 * side).then(|| {
+                (d < 0.25 * side).then(|| {
                     format!(
                         "{} is {d:.1} px from its parent {}",
                         self.joints[j].name, self.joints[p].name
@@ -137,7 +137,7 @@ impl Seeds {
             return String::new();
         }
         format!(
-            "{} (closer than half its rectangle): a bone that short cannot show where the joint \
+            "{} (closer than a quarter of its rectangle): a bone that short cannot show where the joint \
              is, so it follows its parent; place it where it is on the seed frame, or seed on a \
              frame where it shows",
             crowded.join(", ")

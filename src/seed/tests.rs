@@ -150,13 +150,18 @@ fn to_toml_round_trips() {
 fn a_joint_seeded_on_top_of_its_parent_is_named() {
     // ARM's hand is 28 px from the elbow, its rectangle 7 px: fine.
     assert_eq!(parse(ARM).unwrap().crowding_note(), "");
-    // Moved to 3 px from the elbow (less than half its 7 px side).
+    // Moved to 2.7 px from the elbow: under half its 7 px side, not under a quarter (a small
+    // rectangle on a short bone, as on tiny clips); then to 1.25 px, under a quarter.
     let crowded = ARM
         .replace("x = 10\n", "x = 28\n")
         .replace("y = 20.5\n", "y = 38.5\n");
+    assert_eq!(parse(&crowded).unwrap().crowding_note(), "");
+    let crowded = ARM
+        .replace("x = 10\n", "x = 29\n")
+        .replace("y = 20.5\n", "y = 40\n");
     let note = parse(&crowded).unwrap().crowding_note();
     assert!(
-        note.starts_with("hand is 2.7 px from its parent elbow (closer than half"),
+        note.starts_with("hand is 1.2 px from its parent elbow (closer than a quarter"),
         "{note}"
     );
 }
