@@ -60,13 +60,11 @@ pub fn guide(opts: &GuideOptions) -> Result<GuideSummary> {
     let built = choice.build(&opts.clip, opts.fps, w, h, None)?;
     if let Some(c) = built.camera.filter(|c| c.moves()) {
         return Err(Error::Usage(format!(
-            "{}: the camera moves (the background shifts between {} of {} pairs of frames \
-             sampled across the clip), so the clip's median is no picture of the background and \
-             the silhouette would be wrong; give a plate of the empty scene with --background \
-             PLATE, or place the seeds by hand (`mocap2d serve`)",
+            "{}: {}, so the clip's median is no picture of the background and the silhouette \
+             would be wrong; give a plate of the empty scene with --background PLATE, or place \
+             the seeds by hand (`mocap2d serve`)",
             opts.clip.display(),
-            c.pairs - c.still,
-            c.pairs
+            c.describe()
         )));
     }
     let bg = built.model.expect("a median or a plate is a model");

@@ -27,6 +27,16 @@ impl CameraCheck {
     pub fn moves(&self) -> bool {
         2 * self.still < self.pairs
     }
+
+    /// What the check saw, for messages: `the camera moves (the background shifts between …)`.
+    pub fn describe(&self) -> String {
+        format!(
+            "the camera moves (the background shifts between {} of {} pairs of frames sampled \
+             across the clip)",
+            self.pairs - self.still,
+            self.pairs
+        )
+    }
 }
 
 /// The side (px) of the cells the frames are averaged into: the smallest power of two, at least

@@ -82,11 +82,9 @@ impl Built {
     pub fn note(&self) -> Option<String> {
         let c = self.camera.filter(|c| c.moves())?;
         Some(format!(
-            "the camera moves (the background shifts between {} of {} pairs of frames sampled \
-             across the clip), so no clean plate can be made from the clip: tracking without \
-             background subtraction; if the camera is still, give a plate with --background PLATE",
-            c.pairs - c.still,
-            c.pairs
+            "{}, so no clean plate can be made from the clip: tracking without background \
+             subtraction; if the camera is still, give a plate with --background PLATE",
+            c.describe()
         ))
     }
 }
