@@ -258,8 +258,9 @@ impl Background {
     }
 }
 
+/// L1 colour distance `|ΔR| + |ΔG| + |ΔB|` between two pixels (0–765).
 #[inline]
-fn l1(a: [u8; 3], b: [u8; 3]) -> u32 {
+pub(crate) fn l1(a: [u8; 3], b: [u8; 3]) -> u32 {
     (0..3)
         .map(|c| (a[c] as i32 - b[c] as i32).unsigned_abs())
         .sum()

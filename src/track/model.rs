@@ -81,8 +81,7 @@ fn colour_step(frame: &RgbImage, a: Point, b: Point) -> Option<u32> {
         (x >= 0.0 && y >= 0.0 && (x as u32) < frame.width() && (y as u32) < frame.height())
             .then(|| frame.get_pixel(x as u32, y as u32).0)
     };
-    let (ca, cb) = (px(a)?, px(b)?);
-    Some((0..3).map(|k| ca[k].abs_diff(cb[k]) as u32).sum())
+    Some(crate::background::l1(px(a)?, px(b)?))
 }
 
 impl Model {
