@@ -286,25 +286,21 @@ pub fn track_into(
         session.manifest.write(&run_dir)?;
     }
     let mut summary = TrackSummary::new(run_dir, &session, &done);
-    summary.note = [note, crowding, camera_note.unwrap_or_default()]
-        .into_iter()
-        .filter(|n| !n.is_empty())
-        .collect::<Vec<_>>()
-        .join("; ");
-    if work.halvings > 0 {
+    let halved = (work.halvings > 0).then(|| {
         let (w, h) = (info.width >> work.halvings, info.height >> work.halvings);
-        let said = format!(
+        format!(
             "tracked at {w}x{h}, the frames halved {}: the seed rectangles are large \
              (`work_box_px`; px parameters are in those pixels, the tracks in the clip's; \
              `work_box_px = 0` in --params tracks at full resolution)",
             if work.halvings == 1 { "once" } else { "twice" }
-        );
-        summary.note = [summary.note, said]
-            .into_iter()
-            .filter(|n| !n.is_empty())
-            .collect::<Vec<_>>()
-            .join("; ");
-    }
+        )
+    });
+    summary.note = [Some(note), Some(crowding), camera_note, halved]
+        .into_iter()
+        .flatten()
+        .filter(|n| !n.is_empty())
+        .collect::<Vec<_>>()
+        .join("; ");
     summary.decode_stop = decode_stop;
     Ok(summary)
 }
