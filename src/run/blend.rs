@@ -40,8 +40,10 @@ fn weight(e: &JointEstimate) -> f32 {
 }
 
 /// Blends `passes` (each: the estimates of the same frames, in time order) into one estimate
-/// per frame and joint. Score and status are those of the winning candidate.
-pub fn blend(passes: &[Vec<Vec<JointEstimate>>]) -> Vec<Vec<JointEstimate>> {
+/// per frame and joint. Score and status are those of the winning candidate. A winner "`ok`"
+/// in the rules above is one whose own strips fit as an `ok` joint's do
+/// ([`JointEstimate::fits_alone`] at `ok_share`), whether or not its body fits as well.
+pub fn blend(passes: &[Vec<Vec<JointEstimate>>], ok_share: f32) -> Vec<Vec<JointEstimate>> {
     let n = passes.first().map_or(0, Vec::len);
     assert!(
         passes.iter().all(|p| p.len() == n),
@@ -80,7 +82,7 @@ pub fn blend(passes: &[Vec<Vec<JointEstimate>>]) -> Vec<Vec<JointEstimate>> {
                     // `best` agrees with itself: alone when no other pass backs it.
                     let alone = backers == 1;
                     let seen = c.iter().filter(|e| e.status.seen()).count();
-                    let disputed = alone && seen >= 2 && c[best].status != Status::Ok;
+                    let disputed = alone && seen >= 2 && !c[best].fits_alone(ok_share);
                     JointEstimate {
                         pos: (pos / total).into(),
                         angle_rad: angle / total,
@@ -118,28 +120,37 @@ mod tests {
     #[test]
     fn a_lone_ok_winner_against_a_pass_that_saw_the_joint_elsewhere_is_low() {
         // Two passes see the joint 30 px apart, neither backed: the more confident wins, `low`.
-        let out = blend(&[
-            vec![e(0.0, 0.9, Status::Ok)],
-            vec![e(30.0, 0.6, Status::Ok)],
-        ]);
+        let out = blend(
+            &[
+                vec![e(0.0, 0.9, Status::Ok)],
+                vec![e(30.0, 0.6, Status::Ok)],
+            ],
+            0.6,
+        );
         assert_eq!(out[0][0].pos.x, 0.0);
         assert_eq!(out[0][0].status, Status::Low);
         // Backed by a second pass, it stays `ok`.
-        let out = blend(&[
-            vec![e(0.0, 0.9, Status::Ok)],
-            vec![e(1.0, 0.6, Status::Ok)],
-            vec![e(30.0, 0.6, Status::Ok)],
-        ]);
+        let out = blend(
+            &[
+                vec![e(0.0, 0.9, Status::Ok)],
+                vec![e(1.0, 0.6, Status::Ok)],
+                vec![e(30.0, 0.6, Status::Ok)],
+            ],
+            0.6,
+        );
         assert_eq!(out[0][0].status, Status::Ok);
     }
 
     #[test]
     fn agreeing_passes_average_by_score() {
         // 2 px apart; scores 0.75 and 0.25: a quarter of the way to the second pass.
-        let out = blend(&[
-            vec![e(0.0, 0.75, Status::Ok)],
-            vec![e(2.0, 0.25, Status::Low)],
-        ]);
+        let out = blend(
+            &[
+                vec![e(0.0, 0.75, Status::Ok)],
+                vec![e(2.0, 0.25, Status::Low)],
+            ],
+            0.6,
+        );
         assert!((out[0][0].pos.x - 0.5).abs() < 1e-4, "{:?}", out[0][0].pos);
         assert_eq!(out[0][0].status, Status::Ok);
     }
@@ -147,7 +158,7 @@ mod tests {
     #[test]
     fn two_agreeing_passes_outvote_a_more_confident_one() {
         let p = |x: f32, score: f32| vec![e(x, score, Status::Ok)];
-        let out = blend(&[p(0.0, 0.9), p(20.0, 0.6), p(21.0, 0.6)]);
+        let out = blend(&[p(0.0, 0.9), p(20.0, 0.6), p(21.0, 0.6)], 0.6);
         // Support: 0.9 for the lone pass, 1.2 for each of the pair.
         assert!((out[0][0].pos.x - 20.5).abs() < 1e-4, "{:?}", out[0][0].pos);
     }
@@ -156,11 +167,14 @@ mod tests {
     fn passes_a_few_pixels_apart_back_each_other() {
         // 5 px apart (the same limb found twice, each a little off) against a lone pass 20 px
         // away that is more confident than either: the pair wins, averaged by score.
-        let out = blend(&[
-            vec![e(0.0, 0.6, Status::Ok)],
-            vec![e(5.0, 0.5, Status::Low)],
-            vec![e(20.0, 0.9, Status::Ok)],
-        ]);
+        let out = blend(
+            &[
+                vec![e(0.0, 0.6, Status::Ok)],
+                vec![e(5.0, 0.5, Status::Low)],
+                vec![e(20.0, 0.9, Status::Ok)],
+            ],
+            0.6,
+        );
         assert!(
             (out[0][0].pos.x - 2.5 / 1.1).abs() < 1e-4,
             "{:?}",
@@ -172,11 +186,14 @@ mod tests {
     #[test]
     fn two_passes_that_see_a_joint_apart_leave_it_to_the_filling() {
         // Both see it, 20 px apart, the better one only `low`: neither is trusted.
-        let out = blend(&[
-            vec![e(0.0, 0.5, Status::Low)],
-            vec![e(20.0, 0.4, Status::Low)],
-            vec![e(40.0, 0.9, Status::Occluded)],
-        ]);
+        let out = blend(
+            &[
+                vec![e(0.0, 0.5, Status::Low)],
+                vec![e(20.0, 0.4, Status::Low)],
+                vec![e(40.0, 0.9, Status::Occluded)],
+            ],
+            0.6,
+        );
         assert_eq!(out[0][0].status, Status::Occluded);
         assert_eq!(
             out[0][0].pos.x, 0.0,
@@ -184,15 +201,21 @@ mod tests {
         );
         // An `ok` winner keeps its place, only `low` (see below); a `low` one that only hidden
         // passes dispute stands.
-        let ok = blend(&[
-            vec![e(0.0, 0.8, Status::Ok)],
-            vec![e(20.0, 0.4, Status::Low)],
-        ]);
+        let ok = blend(
+            &[
+                vec![e(0.0, 0.8, Status::Ok)],
+                vec![e(20.0, 0.4, Status::Low)],
+            ],
+            0.6,
+        );
         assert_eq!((ok[0][0].pos.x, ok[0][0].status), (0.0, Status::Low));
-        let lone = blend(&[
-            vec![e(0.0, 0.5, Status::Low)],
-            vec![e(20.0, 0.9, Status::Occluded)],
-        ]);
+        let lone = blend(
+            &[
+                vec![e(0.0, 0.5, Status::Low)],
+                vec![e(20.0, 0.9, Status::Occluded)],
+            ],
+            0.6,
+        );
         assert_eq!(lone[0][0].status, Status::Low);
     }
 
@@ -206,7 +229,7 @@ mod tests {
             e(0.0, 0.9, Status::Lost),
         ];
         let b = vec![e(20.0, 0.9, Status::Ok); 4];
-        let out = blend(&[f, b]);
+        let out = blend(&[f, b], 0.6);
         assert_eq!(out[0][0].pos.x, 0.0, "seen with a higher score");
         for o in &out[1..] {
             assert_eq!(o[0].pos.x, 20.0);

@@ -23,6 +23,26 @@ impl Tracker {
         reach
     }
 
+    /// For every joint, the mean of `evidence` over the joints of its body (its root's tree): a
+    /// joint is `ok` only where its body as a whole fits as well (docs/method.md §2.5). A lone
+    /// limb that fits where the rest of its body is lost has most likely settled on something
+    /// that looks like it, not on itself.
+    pub(super) fn body_fit(parents: &[Option<usize>], evidence: &[f32]) -> Vec<f32> {
+        let root = |mut j: usize| {
+            while let Some(p) = parents[j] {
+                j = p;
+            }
+            j
+        };
+        let roots: Vec<usize> = (0..parents.len()).map(root).collect();
+        let (mut sum, mut count) = (vec![0.0f32; parents.len()], vec![0u32; parents.len()]);
+        for (j, &r) in roots.iter().enumerate() {
+            sum[r] += evidence[j];
+            count[r] += 1;
+        }
+        roots.iter().map(|&r| sum[r] / count[r] as f32).collect()
+    }
+
     /// Whether root `r` placed at `q` would sit on another body: within half the smaller body's
     /// reach of a root that was seen on the previous frame and is seen on this one (`evidence`).
     pub(super) fn on_another_body(
@@ -77,5 +97,17 @@ mod tests {
         ];
         let reach = Tracker::body_reach(&parents, &pos);
         assert_eq!(reach, vec![10.0, 0.0, 0.0, 7.0, 0.0]);
+    }
+
+    #[test]
+    fn a_body_fits_by_the_mean_over_its_own_joints() {
+        // Two bodies: a lone forearm (joint 2) fitting on a body whose other joints are lost,
+        // and a second body seen whole.
+        let parents = [None, Some(0), Some(1), None, Some(3)];
+        let evidence = [0.1, 0.2, 0.9, 0.8, 0.6];
+        let fit = Tracker::body_fit(&parents, &evidence);
+        for (j, want) in [0.4, 0.4, 0.4, 0.7, 0.7].into_iter().enumerate() {
+            assert!((fit[j] - want).abs() < 1e-6, "{fit:?}");
+        }
     }
 }

@@ -93,3 +93,16 @@ pub struct JointEstimate {
     pub score: f32,
     pub status: Status,
 }
+
+impl JointEstimate {
+    /// Whether the joint's own strips fit as an `ok` joint's do (`score` at least `ok_share`),
+    /// whether or not its body fits as well (the body's part of the `ok` rule, docs/method.md
+    /// §2.5): how far the tracker can be trusted over a span between keys is judged by this.
+    pub fn fits_alone(&self, ok_share: f32) -> bool {
+        match self.status {
+            Status::Seed | Status::Ok => true,
+            Status::Low => self.score >= ok_share,
+            Status::Occluded | Status::Lost => false,
+        }
+    }
+}

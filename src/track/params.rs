@@ -106,7 +106,8 @@ pub struct TrackParams {
     /// A joint is seen when at least this share of the samples near it (of any of its bones)
     /// fit; below, it is hidden (`occluded`).
     pub seen_share: f32,
-    /// A seen joint is `ok` from this share on; below, `low`.
+    /// A seen joint is `ok` from this share on, when its body's joints also fit this share on
+    /// average (docs/method.md §2.5); below, `low`.
     pub ok_share: f32,
     /// Pyramid level (0: full resolution) on which bones are judged seen or hidden: a coarser
     /// level averages out sensor noise and compression artefacts.

@@ -411,6 +411,7 @@ impl Tracker {
         evidence: &[f32],
         anchored: &[bool],
     ) -> Vec<Option<Placement>> {
+        let body_fit = Self::body_fit(&self.parents, evidence);
         let p = &self.params;
         let seen = |j: usize| evidence[j] >= p.seen_share;
         for &j in &self.order {
@@ -430,7 +431,7 @@ impl Tracker {
             });
             let status = if seen(j) || anchored[j] {
                 state.hidden_run = 0;
-                if e >= p.ok_share && !(measured && stretched) {
+                if e >= p.ok_share && body_fit[j] >= p.ok_share && !(measured && stretched) {
                     Status::Ok
                 } else {
                     Status::Low

@@ -226,7 +226,7 @@ fn the_root_of_the_skeleton_does_not_change_the_uncorrected_dance() {
     let Some(dir) = dance() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let gt = labels(&dir);
-    let mut scores = Vec::new();
+    let (mut scores, mut oks) = (Vec::new(), Vec::new());
     for root in ["left_hip", "left_wrist", "left_ankle", "nose"] {
         let run = tmp.path().join(root);
         let opts = TrackOptions {
@@ -235,16 +235,28 @@ fn the_root_of_the_skeleton_does_not_change_the_uncorrected_dance() {
         };
         track(&opts, &NoProgress).unwrap();
         let rows = read_tracks(&run.join("tracks.csv")).unwrap();
-        let (mut n, mut hit) = (0usize, 0usize);
+        let (mut n, mut hit, mut ok, mut ok_far) = (0usize, 0usize, 0usize, 0usize);
         for r in &rows {
             if let Some(g) = gt.get(&(r.frame, r.joint.clone())) {
+                let near = (r.x - g.0).hypot(r.y - g.1) <= 20.0;
                 n += 1;
-                hit += ((r.x - g.0).hypot(r.y - g.1) <= 20.0) as usize;
+                hit += near as usize;
+                if r.status == "ok" {
+                    ok += 1;
+                    ok_far += !near as usize;
+                }
             }
         }
         scores.push((root, hit as f64 / n as f64));
+        oks.push((root, ok, ok_far as f64 / ok.max(1) as f64));
     }
-    println!("dance uncorrected, PCK@20 by root: {scores:?}");
+    println!("dance uncorrected, PCK@20 by root: {scores:?}; ok, share over 20 px: {oks:?}");
+    // `ok` means something even where the tracker is lost (at most 10 % of `ok` more than
+    // 20 px off). Measured: 7.5 % of 173 at every root; before a joint needed its body to fit
+    // as well (docs/method.md §2.5), 46.7 % of 1013 at the hips.
+    for &(root, ok, wrong) in &oks {
+        assert!(ok >= 150 && wrong <= 0.085, "{root}: {oks:?}");
+    }
     // Measured over the 16 seeded joints: 29.5, 29.5, 29.2, 30.6 % (`eval`, counting the
     // unseeded right ankle as misses: 27.8, 27.8, 27.5, 28.8 %). Before a re-detected body had
     // to fit better than where it was, a hidden root could take a mirrored body: 20.9 % at the

@@ -6,7 +6,7 @@ use crate::geom::Point;
 use crate::run::keyed;
 use crate::track::flow::GreyPyramid;
 use crate::track::scale::Frame;
-use crate::track::{JointEstimate, Status};
+use crate::track::JointEstimate;
 use image::RgbImage;
 use rayon::prelude::*;
 use std::cell::RefCell;
@@ -113,6 +113,7 @@ pub(super) fn early_lead(
     carried_end: Option<&[Point]>,
     carried: &[(u64, Vec<JointEstimate>)],
     back: &[Vec<JointEstimate>],
+    ok_share: f32,
 ) -> keyed::Lead {
     let (Some(ways), Some(carried_end), Some(back_a)) = (ways, carried_end, back.first()) else {
         return keyed::Lead::Tracker;
@@ -130,10 +131,7 @@ pub(super) fn early_lead(
     let rows = carried.iter().map(|(_, r)| r).chain(back);
     let (mut ok, mut all) = (0usize, 0usize);
     for r in rows {
-        ok += r
-            .iter()
-            .filter(|e| matches!(e.status, Status::Ok | Status::Seed))
-            .count();
+        ok += r.iter().filter(|e| e.fits_alone(ok_share)).count();
         all += r.len();
     }
     let ok_share = ok as f32 / all.max(1) as f32;

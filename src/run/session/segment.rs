@@ -237,6 +237,7 @@ impl Session {
                         carried_end.as_deref(),
                         &out[1..=n],
                         &passes[0],
+                        self.params.ok_share,
                     ));
                     early_pyramids = Some(pyramids);
                     early_ways = ways;
@@ -273,7 +274,10 @@ impl Session {
             Vec::new()
         };
         if !passes.is_empty() {
-            for (row, b) in out[1..].iter_mut().zip(crate::run::blend::blend(&passes)) {
+            for (row, b) in out[1..]
+                .iter_mut()
+                .zip(crate::run::blend::blend(&passes, self.params.ok_share))
+            {
                 row.1 = b;
             }
         }
@@ -315,7 +319,7 @@ impl Session {
                 .chain(at_next.as_deref())
                 .map(|r| {
                     r.iter()
-                        .map(|e| matches!(e.status, Status::Ok | Status::Seed))
+                        .map(|e| e.fits_alone(self.params.ok_share))
                         .collect()
                 })
                 .collect();
