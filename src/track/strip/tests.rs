@@ -99,7 +99,8 @@ fn the_gain_terms_measure_the_bar_darkened() {
     // The seed bar darkened by 6 %: the templates' least-squares gain over the samples that fit
     // is 0.94, whatever the view's gain the samples are chosen at (within the colour scale).
     let (p, c) = (Point::new(20.3, 30.4), Point::new(50.2, 30.1));
-    let seed = Pyramid::new(&smooth_bar(p, c), LEVELS);
+    let img = smooth_bar(p, c);
+    let seed = Pyramid::new(&img, LEVELS);
     let s = bone(&seed, p, c, 3.0);
     let mut dark = smooth_bar(p, c);
     for px in dark.pixels_mut() {
