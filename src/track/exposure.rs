@@ -16,6 +16,11 @@ use crate::background::Background;
 use crate::geom::Point;
 use rayon::prelude::*;
 
+/// The least [`Background::gain_step`] at which the subject's gain is measured: on the shipped
+/// flies, whose exposure does not change, it wanders by up to 1 % over the resting frames
+/// (0.992–1.001), so a plate that tells the gain to within twice that is used as it is.
+const SUBJECT_MIN_STEP: f32 = 0.02;
+
 /// The gains within one [`Background::gain_step`] `step` of the background's gain `bg`.
 fn band(bg: f32, step: f32) -> (f32, f32) {
     (bg * (1.0 - step), bg * (1.0 + step))
@@ -25,8 +30,8 @@ fn band(bg: f32, step: f32) -> (f32, f32) {
 /// measured gain, kept within the band the background allows.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(super) struct Exposure {
-    /// [`Background::gain_step`] of the tracker's plate (0 without one: the background's gain
-    /// is used as it is).
+    /// [`Background::gain_step`] of the tracker's plate; 0 without one or when it is under
+    /// [`SUBJECT_MIN_STEP`]: the background's gain is then used as it is.
     pub step: f32,
     /// The gain measured on the subject on the last frame stepped, if any.
     pub last: Option<f32>,
@@ -35,7 +40,10 @@ pub(super) struct Exposure {
 impl Exposure {
     pub fn new(background: Option<&Background>) -> Self {
         Exposure {
-            step: background.map_or(0.0, |b| b.gain_step()),
+            step: background
+                .map(|b| b.gain_step())
+                .filter(|&s| s >= SUBJECT_MIN_STEP)
+                .unwrap_or(0.0),
             last: None,
         }
     }
@@ -106,5 +114,12 @@ mod tests {
             .start(1.0),
             1.0
         );
+        // A plate fine enough (0.5 % a level) is used as it is; a dark one (4.5 %) is not.
+        let plate = |v: u8| Background {
+            plate: image::RgbImage::from_pixel(40, 30, image::Rgb([v, v, v])),
+            threshold: 30,
+        };
+        assert_eq!(Exposure::new(Some(&plate(200))).step, 0.0);
+        assert!((Exposure::new(Some(&plate(22))).step - 1.0 / 22.0).abs() < 1e-6);
     }
 }
