@@ -4,8 +4,10 @@
 //! stage of the frame's step (prediction, search, refinement, final) and its evidence.
 //!
 //!     cargo run --release --example realdiag -- CLIP SEEDS GT [--thr PX] [--from F] [--to F]
-//!         [--fits] [--probe FRAME JOINT [--at-estimate]]
+//!         [--fits] [--probe FRAME JOINT [--at-estimate]] [--gains]
 //!
+//! `--gains` prints every frame's gain over the plate as the plate shows it and as the
+//! templates were judged at (`track::exposure`).
 //! `--fits` prints, for those joints, the cost of each bone to their children laid on the labels
 //! and on the estimates (which pose the strips' appearance prefers); `--probe` saves
 //! /tmp/probe.png, the bone's samples at the labels (or the estimate) on that frame: green fit,
@@ -96,6 +98,17 @@ fn main() -> anyhow::Result<()> {
                 println!("probe {pj} at {idx}: {:?}", t.fit_bone(&frame, j, gp, gc));
                 let pr = t.probe_bone(&frame, j, gp, gc);
                 probe::save_probe(&frame, gp, gc, &pr, "/tmp/probe.png");
+            }
+        }
+        if let (true, Some(tr)) = (
+            args.iter().any(|a| a == "--gains"),
+            tracker.as_ref().and_then(|t| t.trace()),
+        ) {
+            if idx > 0 {
+                println!(
+                    "gain {idx} plate {:.4} judged {:.4}",
+                    tr.plate_gain, tr.gain
+                );
             }
         }
         let mut lines = Vec::new();

@@ -106,26 +106,47 @@ impl Background {
     /// over a sparse grid of pixels, of the frame's channel sum over the plate's. Foreground
     /// pixels are a minority, so the median reflects the background (flicker, exposure drift).
     pub fn gain(&self, frame: &RgbImage) -> f32 {
-        let (w, h) = frame.dimensions();
-        if (w, h) != self.plate.dimensions() {
+        if frame.dimensions() != self.plate.dimensions() {
             return 1.0;
         }
-        let step = (((w as u64 * h as u64) / 4000) as f64).sqrt().max(1.0) as u32;
-        let mut ratios = Vec::with_capacity(4200);
-        for y in (step / 2..h).step_by(step as usize) {
-            for x in (step / 2..w).step_by(step as usize) {
-                let p: u32 = self.plate.get_pixel(x, y).0.iter().map(|&v| v as u32).sum();
-                if p >= 60 {
-                    let f: u32 = frame.get_pixel(x, y).0.iter().map(|&v| v as u32).sum();
-                    ratios.push(f as f32 / p as f32);
-                }
-            }
-        }
+        let mut ratios: Vec<f32> = self
+            .gain_pixels()
+            .map(|(x, y, p)| {
+                let f: u32 = frame.get_pixel(x, y).0.iter().map(|&v| v as u32).sum();
+                f as f32 / p as f32
+            })
+            .collect();
         if ratios.is_empty() {
             return 1.0;
         }
         let mid = ratios.len() / 2;
         *ratios.select_nth_unstable_by(mid, f32::total_cmp).1
+    }
+
+    /// How finely [`Background::gain`] can tell a gain (docs/method.md §1): one level on every
+    /// channel of its median pixel, over that pixel's channel sum. The frame's background moves
+    /// from level to level together as the exposure changes, so on a dark plate (the flies', at
+    /// about 22 levels: 4.5 %) the gain comes in steps of this size. 0 when it has no pixels.
+    pub fn gain_step(&self) -> f32 {
+        let mut sums: Vec<u32> = self.gain_pixels().map(|(_, _, p)| p).collect();
+        if sums.is_empty() {
+            return 0.0;
+        }
+        let mid = sums.len() / 2;
+        3.0 / *sums.select_nth_unstable(mid).1 as f32
+    }
+
+    /// The pixels [`Background::gain`] reads: a sparse grid of about 4000, those whose plate
+    /// channel sum (the third value) is at least 60.
+    fn gain_pixels(&self) -> impl Iterator<Item = (u32, u32, u32)> + '_ {
+        let (w, h) = self.plate.dimensions();
+        let step = (((w as u64 * h as u64) / 4000) as f64).sqrt().max(1.0) as u32;
+        (step / 2..h).step_by(step as usize).flat_map(move |y| {
+            (step / 2..w).step_by(step as usize).filter_map(move |x| {
+                let p: u32 = self.plate.get_pixel(x, y).0.iter().map(|&v| v as u32).sum();
+                (p >= 60).then_some((x, y, p))
+            })
+        })
     }
 
     /// L1 colour distance between `frame` and the plate at pixel `(x, y)`.
@@ -343,5 +364,22 @@ mod tests {
             "{}",
             bg.gain(&bright)
         );
+    }
+
+    #[test]
+    fn a_dark_plate_tells_the_gain_in_coarse_steps() {
+        let plate = |v: u8| Background {
+            plate: RgbImage::from_pixel(40, 30, Rgb([v, v, v])),
+            threshold: MIN_THRESHOLD,
+        };
+        // One level over 22: 4.5 %; over 200: 0.5 %; a plate too dark to read: none.
+        assert!((plate(22).gain_step() - 1.0 / 22.0).abs() < 1e-6);
+        assert!((plate(200).gain_step() - 1.0 / 200.0).abs() < 1e-6);
+        assert_eq!(plate(10).gain_step(), 0.0);
+        // Exposed 4 % darker, the dark plate's frame rounds back to the plate (gain 1) or to one
+        // level below it (21/22): a step about as large as `gain_step`.
+        let dark = plate(22);
+        let g = dark.gain(&RgbImage::from_pixel(40, 30, Rgb([21, 21, 21])));
+        assert!((1.0 - g - dark.gain_step()).abs() < 1e-6, "{g}");
     }
 }

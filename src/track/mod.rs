@@ -22,6 +22,7 @@
 //! Conventions (px, radians clockwise on screen, frames) are [`crate::geom`]'s.
 
 mod bodies;
+mod exposure;
 pub mod flow;
 pub mod gapfill;
 mod hidden;

@@ -2,11 +2,13 @@
 //! (`segments/NNN.state`, see `crate::run::session`), so that a segment the user did not
 //! correct goes on exactly as one tracker through the clip would: which strips are laid
 //! mirrored (the character turned round), the running colours, which samples are reliable,
-//! the typical costs, every joint's motion filters, hidden run and last estimate. Every float
+//! the typical costs, the gain the subject showed last, every joint's motion filters, hidden
+//! run and last estimate. Every float
 //! is stored bit for bit: the tracker is sensitive enough that rounding the running colours
 //! to 1/128 level moved PCK@5 on synth clips by up to 25 points either way.
 //!
-//! Layout (little-endian): the magic line, the frames stepped (u64), the strip count (u32),
+//! Layout (little-endian): the magic line, the frames stepped (u64), the subject's last gain
+//! (f32, 0 before the first step; see `super::exposure`), the strip count (u32),
 //! each strip as [`Strip::save_learnt`](super::strip::Strip::save_learnt) writes it, the joint
 //! count (u32), then per joint its motion ([`Ca::save`] per filter), hidden run (u32) and
 //! last estimate (x, y, angle, score: f32; status: u8).
@@ -16,7 +18,7 @@ use super::motion::Motion;
 use super::{JointEstimate, Status, Tracker};
 use crate::geom::Point;
 
-const MAGIC: &[u8] = b"mocap2d tracker state 3\n";
+const MAGIC: &[u8] = b"mocap2d tracker state 4\n";
 
 /// Whether `bytes` are a tracker state in this version's layout (a state written by an older
 /// mocap2d is not, and cannot be restored).
@@ -85,6 +87,7 @@ impl Tracker {
     pub fn state(&self) -> Vec<u8> {
         let mut w = Writer(MAGIC.to_vec());
         w.u64(self.timings.frames);
+        w.f32(self.exposure.last.unwrap_or(0.0));
         w.u32(self.model.strips.len() as u32);
         for s in &self.model.strips {
             s.save_learnt(&mut w);
@@ -127,9 +130,10 @@ impl Tracker {
             return false;
         };
         let mut r = Reader(rest);
-        let Some(frames) = r.u64() else {
+        let (Some(frames), Some(gain)) = (r.u64(), r.f32()) else {
             return false;
         };
+        self.exposure.last = (gain > 0.0).then_some(gain);
         if r.u32() != Some(self.model.strips.len() as u32) {
             return false;
         }

@@ -1,6 +1,7 @@
 //! [`Tracker`]: the per-frame loop (predict, search, refine, judge, learn) over the appearance
 //! model of [`super::model`].
 
+use super::exposure::Exposure;
 use super::gapfill::GapFiller;
 use super::model::Model;
 use super::motion::{Motion, Prediction};
@@ -66,6 +67,8 @@ pub struct Tracker {
     trace: Option<Trace>,
     /// Time spent in each part of [`Tracker::step`] so far.
     pub(super) timings: Timings,
+    /// The gain the templates are scaled by ([`super::exposure`]).
+    pub(super) exposure: Exposure,
 }
 
 /// Time (seconds) spent in each part of [`Tracker::step`] over all frames so far, for the
@@ -84,7 +87,7 @@ pub struct Timings {
 
 /// Intermediate results of one [`Tracker::step`], for diagnostics: per joint, the predicted
 /// position, the position after the coarse search and after refinement (px), the evidence
-/// (share of fitting samples near it) and whether it was re-acquired.
+/// (share of fitting samples near it), whether it was re-acquired, and the frame's gain.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Trace {
     pub predicted: Vec<Point>,
@@ -92,6 +95,9 @@ pub struct Trace {
     pub refined: Vec<Point>,
     pub evidence: Vec<f32>,
     pub reacquired: Vec<bool>,
+    /// The gain the templates were judged at ([`super::exposure`]), and the plate's.
+    pub gain: f32,
+    pub plate_gain: f32,
 }
 
 impl Tracker {
@@ -166,6 +172,7 @@ impl Tracker {
             .as_ref()
             .map_or(Vec::new(), |b| halve_all(&b.plate, model.levels));
         let angle_of = rooted::angle_of(&user, sk, params.rotate_roots);
+        let exposure = Exposure::new(background.as_ref());
         Tracker {
             user_parents: user.parents.clone(),
             user_order: user.topo_order(),
@@ -188,6 +195,7 @@ impl Tracker {
             work,
             trace: None,
             timings: Timings::default(),
+            exposure,
         }
     }
 
@@ -312,17 +320,25 @@ impl Tracker {
         let pred = self.predict();
         // The pyramid and the brightness gain, side by side.
         let background = self.background.as_ref();
-        let (pyr, gain) = rayon::join(pyramid, || background.map_or(1.0, |b| b.gain(frame)));
+        let (pyr, bg_gain) = rayon::join(pyramid, || background.map_or(1.0, |b| b.gain(frame)));
         // The plate's levels are lent to the views while the strips learn.
         let plate = std::mem::take(&mut self.plate);
-        let views = Self::views_at_gain(self.background.as_ref(), &plate, &pyr, gain);
-        let judge = views[self.params.judge_level.min(views.len() - 1)];
+        let gain = self.exposure.start(bg_gain);
+        let mut views = Self::views_at_gain(self.background.as_ref(), &plate, &pyr, gain);
+        let mut judge = views[self.params.judge_level.min(views.len() - 1)];
         lap(&mut tm.pyramid);
         let mut x = self.search(&views, &pred);
         let searched = self.trace.is_some().then(|| x.clone());
         lap(&mut tm.search);
         self.refine(&views, &pred, &mut x);
         let refined = self.trace.is_some().then(|| x.clone());
+        // Judged and learnt at the gain the subject shows (`super::exposure`).
+        let gain = self.subject_gain(&judge, &x, bg_gain);
+        if gain != views[0].gain {
+            views = Self::views_at_gain(self.background.as_ref(), &plate, &pyr, gain);
+            judge = views[self.params.judge_level.min(views.len() - 1)];
+        }
+        self.exposure.last = Some(gain);
         lap(&mut tm.refine);
         let mut fits = self.fits(&judge, &x);
         if self.flip_mirrored(&judge, &x, &mut fits) {
@@ -355,6 +371,8 @@ impl Tracker {
                 refined: refined.iter().map(|&q| self.work.to_frame(q)).collect(),
                 evidence: evidence.clone(),
                 reacquired: found.clone(),
+                gain,
+                plate_gain: bg_gain,
             }),
             _ => None,
         };

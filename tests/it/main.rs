@@ -16,6 +16,7 @@ mod dance;
 mod decode;
 mod eval;
 mod export;
+mod exposure;
 mod hardening;
 mod hardening_files;
 mod hardening_run;

@@ -242,6 +242,45 @@ impl Strip {
         Some(if n > 0.0 { sum / n } else { 1.0 })
     }
 
+    /// The sums `(Σ w I·T, Σ w T·T)` over the samples that fit at the pose `(p, c)` on view `v`
+    /// (at `v`'s gain, not on the plate), whose least-squares ratio is the gain that best maps
+    /// the template onto the frame there (docs/method.md §2.2, the subject's gain), and the
+    /// share of the samples (background ones aside) that fit. Samples within `SATURATED` of
+    /// white in the frame or the scaled template are left out of the sums: a clipped highlight
+    /// does not follow the gain.
+    pub fn gain_terms(&self, v: &View, p: Point, c: Point) -> (f64, f64, f32) {
+        const SATURATED: f32 = 250.0;
+        let place = self.placement(p, c);
+        let inv = self.inv_scale();
+        let (mut it, mut tt) = (0.0f64, 0.0f64);
+        let (mut wsum, mut win) = (0.0f32, 0.0f32);
+        for (k, s) in self.samples.iter().enumerate() {
+            let w = self.weight(k);
+            if w <= 0.0 || s.background {
+                continue;
+            }
+            wsum += w;
+            let (x, y) = place.at(s.t, s.e, s.v);
+            let Some(e) = self.residual_at(v, k, x, y, inv) else {
+                continue;
+            };
+            if e >= INLIER_E {
+                continue;
+            }
+            win += w;
+            let (Some(col), t) = (v.img.bilinear(x, y), &self.template[k][v.img.k]) else {
+                continue;
+            };
+            if (0..3).any(|ch| col[ch] >= SATURATED || v.gain * t[ch] >= SATURATED) {
+                continue;
+            }
+            let w = w as f64;
+            it += w * (0..3).map(|ch| (col[ch] * t[ch]) as f64).sum::<f64>();
+            tt += w * (0..3).map(|ch| (t[ch] * t[ch]) as f64).sum::<f64>();
+        }
+        (it, tt, if wsum > 0.0 { win / wsum } else { 0.0 })
+    }
+
     /// Fit statistics over all samples for the pose `(p, c)` on view `v`.
     pub fn fit(&self, v: &View, p: Point, c: Point) -> Fit {
         self.fit_as(v, p, c, self.mirrored)

@@ -95,6 +95,34 @@ fn fits_its_seed_pose_and_not_a_shifted_one() {
 }
 
 #[test]
+fn the_gain_terms_measure_the_bar_darkened() {
+    // The seed bar darkened by 6 %: the templates' least-squares gain over the samples that fit
+    // is 0.94, whatever the view's gain the samples are chosen at (within the colour scale).
+    let (p, c) = (Point::new(20.3, 30.4), Point::new(50.2, 30.1));
+    let img = smooth_bar(p, c);
+    let seed = Pyramid::new(&img, LEVELS);
+    let s = bone(&seed, p, c, 3.0);
+    let mut dark = smooth_bar(p, c);
+    for px in dark.pixels_mut() {
+        px.0 = px.0.map(|v| (v as f32 * 0.94).round() as u8);
+    }
+    let dark = Pyramid::new(&dark, LEVELS);
+    for g in [1.0, 0.94, 0.9] {
+        let v = View {
+            gain: g,
+            ..view(&dark, 0)
+        };
+        let (it, tt, _) = s.gain_terms(&v, p, c);
+        assert!((it / tt - 0.94).abs() < 0.003, "chosen at {g}: {}", it / tt);
+    }
+    // A bar off its pose: little fits, little to measure.
+    let off = Vector::new(0.0, 12.0);
+    let (_, on, _) = s.gain_terms(&view(&dark, 0), p, c);
+    let (_, away, _) = s.gain_terms(&view(&dark, 0), p + off, c + off);
+    assert!(away < 0.1 * on, "{away} against {on}");
+}
+
+#[test]
 fn gradient_matches_finite_differences() {
     // Off the pixel grid, with samples past both ends (e ≠ 0), a limb that thins as it
     // stretches, at every pyramid level (the scene drawn 2^level times larger, so that it
