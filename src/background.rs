@@ -21,8 +21,34 @@ pub use setting::BackgroundSetting;
 pub struct Background {
     /// The background alone, same size as the frames.
     pub plate: RgbImage,
-    /// Foreground threshold on the L1 colour distance `|ΔR|+|ΔG|+|ΔB|` (0–765).
+    /// Foreground threshold on the L1 colour distance `|ΔR|+|ΔG|+|ΔB|` (0–765) of a frame from
+    /// the plate's levels as they are: the sampled frames' exposure drift included.
     pub threshold: u32,
+    /// The same measured with each sampled frame in its own light (the plate times the frame's
+    /// gain): the sensor's noise alone, for comparisons made at the frame's gain, as the
+    /// tracker's are ([`Background::noise_sigma`]).
+    pub lit_threshold: u32,
+}
+
+/// A plate level `v` in a frame of brightness `gain` (see [`Background::gain`]).
+#[inline]
+fn lit(v: u8, gain: f32) -> u8 {
+    (gain * v as f32).round().min(255.0) as u8
+}
+
+/// The foreground threshold from distances counted by value: 4× their median, at least
+/// [`MIN_THRESHOLD`].
+fn threshold_of(counts: &[u64]) -> u32 {
+    let mid = counts.iter().sum::<u64>() / 2;
+    let mut below = 0;
+    let noise = counts
+        .iter()
+        .position(|&c| {
+            below += c;
+            below > mid
+        })
+        .unwrap_or(0) as u32;
+    (4 * noise).max(MIN_THRESHOLD)
 }
 
 /// Lowest foreground threshold (L1 colour distance), whatever the measured noise.
@@ -47,35 +73,38 @@ impl Background {
             .expect("the median has the samples' size");
         // Noise estimate: median L1 distance to the plate over a sparse pixel grid of all samples
         // (the distance at index len / 2 of their sorted list), counted by value: a distance is
-        // at most 3 × 255.
+        // at most 3 × 255. Once against the plate's levels as they are, once with each sample
+        // in its own light (the plate times the sample's gain): an exposure that swings over
+        // the clip is not the sensor's noise, and counted as noise where the tracker compares
+        // at the frame's gain it made a limb near the wall's colour look like the wall
+        // (docs/method.md §1).
+        let mut fitted = Background {
+            plate,
+            threshold: MIN_THRESHOLD,
+            lit_threshold: MIN_THRESHOLD,
+        };
         let step = ((w as usize * h as usize) / 20_000).max(1);
-        let mut counts = vec![0u64; 3 * 255 + 1];
+        let (mut raw, mut lit_counts) = (vec![0u64; 3 * 255 + 1], vec![0u64; 3 * 255 + 1]);
         let px = |raw: &[u8], i: usize| [raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]];
         for s in samples {
+            let gain = fitted.gain_told(s);
             for i in (0..w as usize * h as usize).step_by(step) {
-                counts[l1(px(s.as_raw(), i), px(plate.as_raw(), i)) as usize] += 1;
+                let (f, b) = (px(s.as_raw(), i), px(fitted.plate.as_raw(), i));
+                raw[l1(f, b) as usize] += 1;
+                lit_counts[l1(f, b.map(|v| lit(v, gain))) as usize] += 1;
             }
         }
-        let mid = counts.iter().sum::<u64>() / 2;
-        let mut below = 0;
-        let noise = counts
-            .iter()
-            .position(|&c| {
-                below += c;
-                below > mid
-            })
-            .unwrap_or(0) as u32;
-        Ok(Background {
-            plate,
-            threshold: (4 * noise).max(MIN_THRESHOLD),
-        })
+        fitted.threshold = threshold_of(&raw);
+        fitted.lit_threshold = threshold_of(&lit_counts);
+        Ok(fitted)
     }
 
-    /// Per-channel noise standard deviation (levels) implied by the foreground threshold: the
-    /// threshold is 4× the median L1 deviation over three channels, and for Gaussian noise of
-    /// σ per channel that median is about 2.2 σ.
+    /// Per-channel noise standard deviation (levels) implied by the foreground threshold measured
+    /// in each frame's own light ([`Background::lit_threshold`]): the threshold is 4× the median
+    /// L1 deviation over three channels, and for Gaussian noise of σ per channel that median is
+    /// about 2.2 σ.
     pub fn noise_sigma(&self) -> f32 {
-        self.threshold as f32 / (4.0 * 2.2)
+        self.lit_threshold as f32 / (4.0 * 2.2)
     }
 
     /// A background from a user-supplied clean plate (PNG/JPEG) of the clip's frame size.
@@ -99,6 +128,7 @@ impl Background {
         Ok(Background {
             plate: img,
             threshold: MIN_THRESHOLD,
+            lit_threshold: MIN_THRESHOLD,
         })
     }
 
@@ -121,6 +151,18 @@ impl Background {
         }
         let mid = ratios.len() / 2;
         *ratios.select_nth_unstable_by(mid, f32::total_cmp).1
+    }
+
+    /// [`Background::gain`] where the plate tells it from 1 (further off than
+    /// [`Background::gain_step`]), else exactly 1: a frame in the plate's own light is compared
+    /// with the plate's own levels.
+    pub fn gain_told(&self, frame: &RgbImage) -> f32 {
+        let gain = self.gain(frame);
+        if (gain - 1.0).abs() > self.gain_step() {
+            gain
+        } else {
+            1.0
+        }
     }
 
     /// How finely [`Background::gain`] can tell a gain (docs/method.md §1): one level on every
@@ -367,10 +409,38 @@ mod tests {
     }
 
     #[test]
+    fn an_exposure_that_swings_is_not_noise() {
+        // A textured wall filmed through a ±15 % brightness swing, with a pixel of grain in
+        // every 16: measured in each frame's own light the noise stays at the floor; against
+        // the plate's levels the swing makes a threshold of over 100.
+        let wall = |x: u32, y: u32| [120 + (x * 7 % 40) as u8, 100 + (y * 5 % 30) as u8, 90];
+        let frames: Vec<RgbImage> = (0..25)
+            .map(|i| {
+                let g = 1.0 + 0.15 * (2.0 * std::f32::consts::PI * i as f32 / 25.0).sin();
+                RgbImage::from_fn(64, 48, |x, y| {
+                    let grain = if (x + 3 * y + i) % 16 == 0 { 6.0 } else { 0.0 };
+                    Rgb(wall(x, y).map(|v| (g * v as f32 + grain).round().min(255.0) as u8))
+                })
+            })
+            .collect();
+        let bg = Background::fit(&frames).unwrap();
+        assert_eq!(bg.lit_threshold, MIN_THRESHOLD);
+        assert!(
+            (bg.noise_sigma() - 30.0 / 8.8).abs() < 1e-4,
+            "{}",
+            bg.noise_sigma()
+        );
+        assert!(bg.threshold > 100, "{}", bg.threshold);
+        let g = bg.gain_told(&frames[6]);
+        assert!((g - 1.149).abs() < 0.02, "{g}");
+    }
+
+    #[test]
     fn a_dark_plate_tells_the_gain_in_coarse_steps() {
         let plate = |v: u8| Background {
             plate: RgbImage::from_pixel(40, 30, Rgb([v, v, v])),
             threshold: MIN_THRESHOLD,
+            lit_threshold: MIN_THRESHOLD,
         };
         // One level over 22: 4.5 %; over 200: 0.5 %; a plate too dark to read: none.
         assert!((plate(22).gain_step() - 1.0 / 22.0).abs() < 1e-6);

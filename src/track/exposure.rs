@@ -118,6 +118,7 @@ mod tests {
         let plate = |v: u8| Background {
             plate: image::RgbImage::from_pixel(40, 30, image::Rgb([v, v, v])),
             threshold: 30,
+            lit_threshold: 30,
         };
         assert_eq!(Exposure::new(Some(&plate(200))).step, 0.0);
         assert!((Exposure::new(Some(&plate(22))).step - 1.0 / 22.0).abs() < 1e-6);

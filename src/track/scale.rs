@@ -121,6 +121,7 @@ impl WorkScale {
         Background {
             plate: self.image(&bg.plate).into_owned(),
             threshold: bg.threshold,
+            lit_threshold: bg.lit_threshold,
         }
     }
 }

@@ -452,3 +452,43 @@ fn walk_without_a_plate_is_tracked() {
     // used, 69.1 %.
     assert!(pck5 >= 0.99 && median <= 0.15, "{line}");
 }
+
+/// The walk filmed through an exposure that swings by ±15 % (period 150 frames; FFmpeg's `geq`,
+/// highlights clip) around the plate's: the tracker's noise is measured with each sample of the
+/// plate in its own light, so the swing is not taken for noise (docs/method.md §1).
+#[test]
+fn walk_through_a_brightness_swing_is_tracked() {
+    let dir = tempfile::tempdir().unwrap();
+    write_synth(dir.path(), Scenario::Walk, 640, 360, 1, None);
+    let g = "clip(%c(X,Y)*(1+0.15*sin(2*PI*N/150)),0,255)";
+    let swing = ["r", "g", "b"]
+        .map(|c| format!("{c}='{}'", g.replace("%c", c)))
+        .join(":");
+    let o = std::process::Command::new("ffmpeg")
+        .args(["-v", "error", "-y", "-i"])
+        .arg(dir.path().join("clip.mp4"))
+        .args([
+            "-vf",
+            &format!("geq={swing}"),
+            "-c:v",
+            "libx264",
+            "-crf",
+            "18",
+        ])
+        .args(["-pix_fmt", "yuv420p"])
+        .arg(dir.path().join("swing.mp4"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let opts = TrackOptions {
+        out: Some(dir.path().join("run")),
+        ..TrackOptions::new(dir.path().join("swing.mp4"), dir.path().join("joints.toml"))
+    };
+    track(&opts, &NoProgress).unwrap();
+    let line = &eval(&dir.path().join("run"), &dir.path().join("gt.csv"), false).unwrap()[0];
+    println!("walk seed 1 through a brightness swing: {line}");
+    let (median, pck5) = parse_line(line);
+    // Measured: PCK@5 98.9 %, median 0.13 px; with the swing counted as the tracker's noise
+    // (σ_n 38 levels against 3.4), 59.3 %.
+    assert!(pck5 >= 0.985 && median <= 0.15, "{line}");
+}

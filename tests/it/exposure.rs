@@ -37,6 +37,7 @@ fn the_gain_follows_the_subject_not_the_dark_plates_steps() {
     let background = Background {
         plate: dark_plate,
         threshold: MIN_THRESHOLD,
+        lit_threshold: MIN_THRESHOLD,
     };
     let seeds = mocap2d::seed::parse_seeds(&clip.seeds_toml(), Path::new("seeds")).unwrap();
     let mut t = Tracker::new(

@@ -44,6 +44,7 @@ fn twice_the_pixels_tracked_halved_are_the_same_tracks() {
     let bg_large = Background {
         plate: doubled(&bg.plate),
         threshold: bg.threshold,
+        lit_threshold: bg.lit_threshold,
     };
     let mut a = Tracker::new(params.clone(), &small, &clip.frames[0], Some(bg));
     let mut b = Tracker::new(
