@@ -51,6 +51,20 @@ fn joint_figures(dir: &tempfile::TempDir, joint: &str) -> (f32, f32) {
     parse_line(line)
 }
 
+/// Tracks with `opts` into `dir/run` and scores it against `dir/gt.csv`: the `eval` line
+/// (printed after `label`) with its median and PCK@5.
+fn track_into_run(dir: &Path, opts: TrackOptions, label: &str) -> (String, (f32, f32)) {
+    let opts = TrackOptions {
+        out: Some(dir.join("run")),
+        ..opts
+    };
+    track(&opts, &NoProgress).unwrap();
+    let line = eval(&dir.join("run"), &dir.join("gt.csv"), false).unwrap()[0].clone();
+    println!("{label}: {line}");
+    let figures = parse_line(&line);
+    (line, figures)
+}
+
 /// Pulls median and PCK@5 out of an `eval` line.
 fn parse_line(line: &str) -> (f32, f32) {
     let field = |key: &str, end: &str| -> f32 {
@@ -440,14 +454,10 @@ fn walk_without_a_plate_is_tracked() {
     let dir = tempfile::tempdir().unwrap();
     write_synth(dir.path(), Scenario::Walk, 640, 360, 1, None);
     let opts = TrackOptions {
-        out: Some(dir.path().join("run")),
         background: mocap2d::background::BackgroundChoice::None,
         ..TrackOptions::new(dir.path().join("clip.mp4"), dir.path().join("joints.toml"))
     };
-    track(&opts, &NoProgress).unwrap();
-    let line = &eval(&dir.path().join("run"), &dir.path().join("gt.csv"), false).unwrap()[0];
-    println!("walk seed 1, no plate: {line}");
-    let (median, pck5) = parse_line(line);
+    let (line, (median, pck5)) = track_into_run(dir.path(), opts, "walk seed 1, no plate");
     // Measured: PCK@5 99.9 %, median 0.09 px (with its plate 100.0 %); before the edges were
     // used, 69.1 %.
     assert!(pck5 >= 0.99 && median <= 0.15, "{line}");
@@ -480,14 +490,8 @@ fn walk_through_a_brightness_swing_is_tracked() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let opts = TrackOptions {
-        out: Some(dir.path().join("run")),
-        ..TrackOptions::new(dir.path().join("swing.mp4"), dir.path().join("joints.toml"))
-    };
-    track(&opts, &NoProgress).unwrap();
-    let line = &eval(&dir.path().join("run"), &dir.path().join("gt.csv"), false).unwrap()[0];
-    println!("walk seed 1 through a brightness swing: {line}");
-    let (median, pck5) = parse_line(line);
+    let opts = TrackOptions::new(dir.path().join("swing.mp4"), dir.path().join("joints.toml"));
+    let (line, (median, pck5)) = track_into_run(dir.path(), opts, "walk seed 1, a swing");
     // Measured: PCK@5 98.9 %, median 0.13 px; with the swing counted as the tracker's noise
     // (σ_n 38 levels against 3.4), 59.3 %.
     assert!(pck5 >= 0.985 && median <= 0.15, "{line}");
