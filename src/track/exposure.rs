@@ -10,8 +10,7 @@
 //! joints are refined, within one such step of the background's, and the next frame starts
 //! from it.
 
-use super::strip::View;
-use super::tracker::Tracker;
+use super::strip::{Strip, View};
 use crate::background::Background;
 use crate::geom::Point;
 use rayon::prelude::*;
@@ -53,27 +52,29 @@ impl Exposure {
         let (lo, hi) = band(bg, self.step);
         self.last.map_or(bg, |g| g.clamp(lo, hi))
     }
-}
 
-impl Tracker {
-    /// The gain that best maps the strips' templates onto the frame at the poses `x` (least
-    /// squares over the samples that fit on the strips where at least `ok_share` of them do,
+    /// The gain that best maps the `strips`' templates onto the frame at the poses `x` (least
+    /// squares over the samples that fit on the strips where at least `clear` of them do,
     /// chosen at `v`'s gain and then again at the first estimate's), within the band the
     /// background's gain `bg` allows; `v`'s gain when nothing fits or there is no band.
-    pub(super) fn subject_gain(&self, v: &View, x: &[Point], bg: f32) -> f32 {
-        if self.exposure.step <= 0.0 {
+    pub fn subject_gain(
+        &self,
+        strips: &[Strip],
+        v: &View,
+        x: &[Point],
+        bg: f32,
+        clear: f32,
+    ) -> f32 {
+        if self.step <= 0.0 {
             return v.gain;
         }
-        let (lo, hi) = band(bg, self.exposure.step);
+        let (lo, hi) = band(bg, self.step);
         let mut v = *v;
         // Only bones that clearly fit speak for the gain: on a bone mostly off its limb, what
         // fits is wherever the colours happen to match.
-        let clear = self.params.ok_share;
         for _ in 0..2 {
             // Summed in strip order, whatever the threads: the same bits on every run.
-            let terms: Vec<(f64, f64, f32)> = self
-                .model
-                .strips
+            let terms: Vec<(f64, f64, f32)> = strips
                 .par_iter()
                 .map(|s| s.gain_terms(&v, x[s.parent], x[s.child]))
                 .collect();

@@ -334,7 +334,10 @@ impl Tracker {
         self.refine(&views, &pred, &mut x);
         let refined = self.trace.is_some().then(|| x.clone());
         // Judged and learnt at the gain the subject shows (`super::exposure`).
-        let gain = self.subject_gain(&judge, &x, bg_gain);
+        let (strips, clear) = (&self.model.strips, self.params.ok_share);
+        let gain = self
+            .exposure
+            .subject_gain(strips, &judge, &x, bg_gain, clear);
         if gain != views[0].gain {
             views = Self::views_at_gain(self.background.as_ref(), &plate, &pyr, gain);
             judge = views[self.params.judge_level.min(views.len() - 1)];
