@@ -74,19 +74,6 @@ pub fn hash_file(path: &Path) -> Result<Option<String>> {
     }
 }
 
-/// The word of a status as written in `tracks.csv` and segment files, back to a [`Status`].
-pub fn parse_status(word: &str) -> Option<Status> {
-    [
-        Status::Seed,
-        Status::Ok,
-        Status::Low,
-        Status::Occluded,
-        Status::Lost,
-    ]
-    .into_iter()
-    .find(|s| s.as_str() == word)
-}
-
 /// Direction (radians) that defines each joint's `angle` 0, as the tracker measures it: its
 /// bone's, from the parent; a root's is the bone to its first child when `rotate_roots`, else
 /// `None` (a root then keeps angle 0).
@@ -203,7 +190,7 @@ impl Start {
             .iter()
             .zip(&angles)
             .map(|(j, &angle_rad)| {
-                let status = j.status.as_deref().and_then(parse_status);
+                let status = j.status.as_deref().and_then(Status::from_word);
                 let (score, status) = match (corrected, status) {
                     (false, Some(s)) => (j.score.unwrap_or(1.0).clamp(0.0, 1.0), s),
                     _ => (1.0, Status::Seed),

@@ -7,7 +7,6 @@
 
 use crate::error::{Error, Result};
 use crate::geom::Point;
-use crate::run::segments::parse_status;
 use crate::track::{JointEstimate, Status};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -130,7 +129,7 @@ pub fn for_each_frame(
         }
         pos.push(Point::new(r.x, r.y));
         score.push(r.score);
-        status.push(parse_status(&r.status).unwrap_or(Status::Lost));
+        status.push(Status::from_word(&r.status).unwrap_or(Status::Lost));
         if pos.len() == joints {
             f(frame, &pos, &score, &status);
             pos.clear();

@@ -77,6 +77,19 @@ impl Status {
         }
     }
 
+    /// A word of `tracks.csv` and the segment files back to its status ([`Status::as_str`]).
+    pub fn from_word(word: &str) -> Option<Status> {
+        [
+            Status::Seed,
+            Status::Ok,
+            Status::Low,
+            Status::Occluded,
+            Status::Lost,
+        ]
+        .into_iter()
+        .find(|s| s.as_str() == word)
+    }
+
     /// Whether the joint was seen (a measurement) rather than inferred.
     pub fn seen(self) -> bool {
         matches!(self, Status::Seed | Status::Ok | Status::Low)
