@@ -100,14 +100,14 @@ impl Ca {
     }
 
     /// Appends the filter (state, covariance, process noise) to `w` ([`super::state`]).
-    pub fn save(&self, w: &mut super::state::Writer) {
+    pub fn save(&self, w: &mut super::state::bytes::Writer) {
         for v in self.s.iter().chain(self.cov.iter()).chain(self.q.iter()) {
             w.f32(*v);
         }
     }
 
     /// Reads back what [`Ca::save`] wrote.
-    pub fn load(r: &mut super::state::Reader) -> Option<Ca> {
+    pub fn load(r: &mut super::state::bytes::Reader) -> Option<Ca> {
         let mut v = [0f32; 21];
         for x in &mut v {
             *x = r.f32()?;

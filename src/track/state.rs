@@ -18,6 +18,10 @@ use super::motion::Motion;
 use super::{JointEstimate, Status, Tracker};
 use crate::geom::Point;
 
+pub mod bytes;
+
+use bytes::{Reader, Writer};
+
 const MAGIC: &[u8] = b"mocap2d tracker state 4\n";
 
 /// Whether `bytes` are a tracker state in this version's layout (a state written by an older
@@ -34,58 +38,10 @@ const STATUSES: [Status; 5] = [
     Status::Lost,
 ];
 
-/// Little-endian byte writer.
-#[derive(Default)]
-pub struct Writer(Vec<u8>);
-
-impl Writer {
-    pub fn u8(&mut self, v: u8) {
-        self.0.push(v);
-    }
-    pub fn u16(&mut self, v: u16) {
-        self.0.extend_from_slice(&v.to_le_bytes());
-    }
-    pub fn u32(&mut self, v: u32) {
-        self.0.extend_from_slice(&v.to_le_bytes());
-    }
-    pub fn u64(&mut self, v: u64) {
-        self.0.extend_from_slice(&v.to_le_bytes());
-    }
-    pub fn f32(&mut self, v: f32) {
-        self.u32(v.to_bits());
-    }
-}
-
-/// Little-endian byte reader; every read is `None` past the end.
-pub struct Reader<'a>(&'a [u8]);
-
-impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> Option<[u8; N]> {
-        let (head, rest) = self.0.split_first_chunk::<N>()?;
-        self.0 = rest;
-        Some(*head)
-    }
-    pub fn u8(&mut self) -> Option<u8> {
-        self.take::<1>().map(|b| b[0])
-    }
-    pub fn u16(&mut self) -> Option<u16> {
-        self.take().map(u16::from_le_bytes)
-    }
-    pub fn u32(&mut self) -> Option<u32> {
-        self.take().map(u32::from_le_bytes)
-    }
-    pub fn u64(&mut self) -> Option<u64> {
-        self.take().map(u64::from_le_bytes)
-    }
-    pub fn f32(&mut self) -> Option<f32> {
-        self.u32().map(f32::from_bits).filter(|v| v.is_finite())
-    }
-}
-
 impl Tracker {
     /// This tracker's state after the frames it has stepped (see the module docs).
     pub fn state(&self) -> Vec<u8> {
-        let mut w = Writer(MAGIC.to_vec());
+        let mut w = Writer::after(MAGIC);
         w.u64(self.timings.frames);
         w.f32(self.exposure.last.unwrap_or(0.0));
         w.u32(self.model.strips.len() as u32);
@@ -119,7 +75,7 @@ impl Tracker {
             }
             w.u8(STATUSES.iter().position(|&s| s == e.status).unwrap_or(0) as u8);
         }
-        w.0
+        w.into_bytes()
     }
 
     /// Takes on the state `bytes` ([`Tracker::state`]) of a tracker built from the same seed
@@ -129,7 +85,7 @@ impl Tracker {
         let Some(rest) = bytes.strip_prefix(MAGIC) else {
             return false;
         };
-        let mut r = Reader(rest);
+        let mut r = Reader::new(rest);
         let (Some(frames), Some(gain)) = (r.u64(), r.f32()) else {
             return false;
         };
@@ -152,7 +108,7 @@ impl Tracker {
             };
         }
         self.timings.frames = frames;
-        r.0.is_empty()
+        r.is_empty()
     }
 }
 

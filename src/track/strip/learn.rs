@@ -41,7 +41,7 @@ impl Strip {
     /// Appends what this strip has learnt since the seed frame to `out` (see
     /// [`state`]): whether it is mirrored, its colour scale, typical shares and costs,
     /// and per sample its running colour and reliability.
-    pub fn save_learnt(&self, out: &mut state::Writer) {
+    pub fn save_learnt(&self, out: &mut state::bytes::Writer) {
         out.u32(self.samples.len() as u32);
         out.u8(self.mirrored as u8);
         out.f32(self.sigma);
@@ -64,7 +64,7 @@ impl Strip {
 
     /// Reads back what [`Strip::save_learnt`] wrote, the template remade from the anchor and
     /// the running colour with `anchor_weight`. `None` when the bytes do not fit this strip.
-    pub fn load_learnt(&mut self, r: &mut state::Reader, anchor_weight: f32) -> Option<()> {
+    pub fn load_learnt(&mut self, r: &mut state::bytes::Reader, anchor_weight: f32) -> Option<()> {
         if r.u32()? as usize != self.samples.len() {
             return None;
         }
