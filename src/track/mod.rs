@@ -77,17 +77,18 @@ impl Status {
         }
     }
 
+    /// Every status, in the order the tracker state numbers them.
+    pub const ALL: [Status; 5] = [
+        Status::Seed,
+        Status::Ok,
+        Status::Low,
+        Status::Occluded,
+        Status::Lost,
+    ];
+
     /// A word of `tracks.csv` and the segment files back to its status ([`Status::as_str`]).
     pub fn from_word(word: &str) -> Option<Status> {
-        [
-            Status::Seed,
-            Status::Ok,
-            Status::Low,
-            Status::Occluded,
-            Status::Lost,
-        ]
-        .into_iter()
-        .find(|s| s.as_str() == word)
+        Status::ALL.into_iter().find(|s| s.as_str() == word)
     }
 
     /// Whether the joint was seen (a measurement) rather than inferred.

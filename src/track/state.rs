@@ -30,14 +30,6 @@ pub fn is_current(bytes: &[u8]) -> bool {
     bytes.starts_with(MAGIC)
 }
 
-const STATUSES: [Status; 5] = [
-    Status::Seed,
-    Status::Ok,
-    Status::Low,
-    Status::Occluded,
-    Status::Lost,
-];
-
 impl Tracker {
     /// This tracker's state after the frames it has stepped (see the module docs).
     pub fn state(&self) -> Vec<u8> {
@@ -73,7 +65,7 @@ impl Tracker {
             for v in [e.pos.x, e.pos.y, e.angle_rad, e.score] {
                 w.f32(v);
             }
-            w.u8(STATUSES.iter().position(|&s| s == e.status).unwrap_or(0) as u8);
+            w.u8(Status::ALL.iter().position(|&s| s == e.status).unwrap_or(0) as u8);
         }
         w.into_bytes()
     }
@@ -137,7 +129,7 @@ fn load_joint(
         pos: Point::new(x, y),
         angle_rad,
         score,
-        status: *STATUSES.get(r.u8()? as usize)?,
+        status: *Status::ALL.get(r.u8()? as usize)?,
     };
     Some(())
 }
