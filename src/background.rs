@@ -36,6 +36,15 @@ fn lit(v: u8, gain: f32) -> u8 {
     (gain * v as f32).round().min(255.0) as u8
 }
 
+/// `gain` where it is further from 1 than `step` ([`Background::gain_step`]), else exactly 1.
+fn told(gain: f32, step: f32) -> f32 {
+    if (gain - 1.0).abs() > step {
+        gain
+    } else {
+        1.0
+    }
+}
+
 /// The foreground threshold from distances counted by value: 4× their median, at least
 /// [`MIN_THRESHOLD`].
 fn threshold_of(counts: &[u64]) -> u32 {
@@ -86,8 +95,9 @@ impl Background {
         let step = ((w as usize * h as usize) / 20_000).max(1);
         let (mut raw, mut lit_counts) = (vec![0u64; 3 * 255 + 1], vec![0u64; 3 * 255 + 1]);
         let px = |raw: &[u8], i: usize| [raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]];
+        let gain_step = fitted.gain_step();
         for s in samples {
-            let gain = fitted.gain_told(s);
+            let gain = told(fitted.gain(s), gain_step);
             for i in (0..w as usize * h as usize).step_by(step) {
                 let (f, b) = (px(s.as_raw(), i), px(fitted.plate.as_raw(), i));
                 raw[l1(f, b) as usize] += 1;
@@ -158,12 +168,7 @@ impl Background {
     /// [`Background::gain_step`]), else exactly 1: a frame in the plate's own light is compared
     /// with the plate's own levels.
     pub fn gain_told(&self, frame: &RgbImage) -> f32 {
-        let gain = self.gain(frame);
-        if (gain - 1.0).abs() > self.gain_step() {
-            gain
-        } else {
-            1.0
-        }
+        told(self.gain(frame), self.gain_step())
     }
 
     /// How finely [`Background::gain`] can tell a gain (docs/method.md §1): one level on every
