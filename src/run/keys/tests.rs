@@ -31,28 +31,19 @@ fn reads_subsets_of_joints_sorted_by_frame() {
 
 #[test]
 fn errors_name_the_line_and_joint() {
-    let e = parse_str("[[key]]\nframe = 3\nhip = [1, 2]\n\n[[key]]\nframe = 5\nelbow = [1, 2]\n")
-        .unwrap_err()
-        .to_string();
+    let err = |text: &str| parse_str(text).unwrap_err().to_string();
+    let e = err("[[key]]\nframe = 3\nhip = [1, 2]\n\n[[key]]\nframe = 5\nelbow = [1, 2]\n");
     assert!(
         e.contains("line 7") && e.contains("elbow") && e.contains("hip, knee, ankle"),
         "{e}"
     );
-    let e = parse_str("[[key]]\nframe = 3\nknee = [1, 200]\n")
-        .unwrap_err()
-        .to_string();
+    let e = err("[[key]]\nframe = 3\nknee = [1, 200]\n");
     assert!(e.contains("line 3") && e.contains("outside"), "{e}");
-    let e = parse_str("[[key]]\nframe = 60\nknee = [1, 2]\n")
-        .unwrap_err()
-        .to_string();
+    let e = err("[[key]]\nframe = 60\nknee = [1, 2]\n");
     assert!(e.contains("line 2") && e.contains("50 frames"), "{e}");
-    let e = parse_str("[[key]]\nframe = 6\nknee = [1, 2]\n[[key]]\nframe = 6\nhip = [1, 2]\n")
-        .unwrap_err()
-        .to_string();
+    let e = err("[[key]]\nframe = 6\nknee = [1, 2]\n[[key]]\nframe = 6\nhip = [1, 2]\n");
     assert!(e.contains("line 5") && e.contains("second key"), "{e}");
-    let e = parse_str("[[key]]\nframe = 6\nknee = 3\n")
-        .unwrap_err()
-        .to_string();
+    let e = err("[[key]]\nframe = 6\nknee = 3\n");
     assert!(e.contains("line 3") && e.contains("[x, y]"), "{e}");
 }
 
