@@ -26,8 +26,8 @@ pub fn report(run_dir: &Path, keys: usize) -> Result<crate::run::report::Report>
 
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines
 /// (all joints first; when the ground truth has a `visible` column, the joints seen in the image
-/// and those hidden; the labelled joints the run lacks, counted as misses; then one line per
-/// joint when asked). Frames from the seed frame on. No joint name in common: exit 2.
+/// and those hidden; the labelled joints the run lacks, counted as misses, and then the joints
+/// it has alone; then one line per joint when asked). Frames from the seed frame on. No joint name in common: exit 2.
 pub fn eval(run_dir: &Path, gt_path: &Path, per_joint: bool) -> Result<Vec<String>> {
     use crate::eval::{summarise, PointError};
     let rows = crate::run::tracks::read_tracks(&run_dir.join("tracks.csv"))?;
@@ -65,6 +65,10 @@ pub fn eval(run_dir: &Path, gt_path: &Path, per_joint: bool) -> Result<Vec<Strin
             "labelled but not in the run, counted as misses: {}",
             list.join(", ")
         ));
+        // The same over the joints the run tracks: what compares with a tracker given the same
+        // seed file, and with a baseline scored on those joints.
+        let tracked = px(&|e| names.contains(&e.joint.as_str()));
+        lines.push(format!("joints in the run: {}", summarise(&tracked)));
     }
     if per_joint {
         let all = names

@@ -57,6 +57,11 @@ fn a_labelled_joint_missing_from_the_run_counts_as_a_miss_and_is_named() {
         lines[1], "labelled but not in the run, counted as misses: c (4 points)",
         "{out}"
     );
+    // The joints the run has, alone: 4 of 8 within 5 px.
+    assert!(
+        lines[2].starts_with("joints in the run: n=8 ") && lines[2].contains("PCK@5=50.0%"),
+        "{out}"
+    );
     assert!(
         lines
             .iter()
