@@ -7,6 +7,8 @@
 
 use super::data::{is_segment_name, RunData, SEGMENTS_DIR};
 use super::draw::png_bytes;
+use super::reply::json_body;
+pub use super::reply::Reply;
 use crate::error::{Error, Result};
 use crate::seed::{parse_seeds, to_toml, SeedJoint, MIN_BOX_PX};
 use serde::Deserialize;
@@ -26,29 +28,6 @@ type Broken = (String, String);
 /// button answers 501.
 pub type ResumeFn = dyn Fn(&Path, u32) -> Result<String> + Send + Sync;
 
-/// An HTTP reply: status, content type, body.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Reply {
-    pub status: u16,
-    pub content_type: &'static str,
-    pub body: Vec<u8>,
-}
-
-impl Reply {
-    pub fn json(status: u16, v: &Value) -> Reply {
-        Reply {
-            status,
-            content_type: "application/json",
-            body: v.to_string().into_bytes(),
-        }
-    }
-
-    /// `{"error": msg}` with `status`.
-    pub fn error(status: u16, msg: impl Into<String>) -> Reply {
-        Reply::json(status, &json!({ "error": msg.into() }))
-    }
-}
-
 /// The run being corrected, and the first frames decoded so far (PNG bytes by frame).
 pub struct Api {
     pub(super) data: RunData,
@@ -56,7 +35,7 @@ pub struct Api {
     frames: Mutex<BTreeMap<u64, Arc<Vec<u8>>>>,
     resume: Option<Box<ResumeFn>>,
     /// Any frame for the key editor: see [`super::keys_api`].
-    pub(super) any_frame: super::keys_api::FrameCache,
+    pub(super) any_frame: super::frame_cache::FrameCache,
 }
 
 /// A rectangle as the page sends it.
@@ -339,15 +318,6 @@ impl Api {
             Err(e) => Reply::error(500, e.to_string()),
         }
     }
-}
-
-/// The JSON request `body`, or a 400 reply saying it is malformed and to send `shape`.
-pub(super) fn json_body<T: serde::de::DeserializeOwned>(
-    body: &[u8],
-    shape: &str,
-) -> std::result::Result<T, Reply> {
-    serde_json::from_slice(body)
-        .map_err(|e| Reply::error(400, format!("malformed body: {e}; send {shape}")))
 }
 
 /// Sets each of `joints`' rectangle from the page's `edits`, which must give every joint once

@@ -4,11 +4,13 @@
 pub mod api;
 pub mod data;
 pub mod draw;
+pub mod frame_cache;
 pub mod graph;
 pub mod guide;
 pub mod keys_api;
 pub mod overlay;
 pub mod plot;
+pub mod reply;
 pub mod seed_api;
 pub mod serve;
 pub mod sheet;

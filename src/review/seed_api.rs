@@ -16,8 +16,9 @@
 //! - `POST /api/seeds/track`: runs `mocap2d track CLIP --seeds SEEDS.toml` when the app supplies
 //!   it (501 otherwise), once the seeds are saved (409 before).
 
-use super::api::{apply_boxes, json_body, BoxEdit, Reply};
-use super::keys_api::FrameCache;
+use super::api::{apply_boxes, BoxEdit};
+use super::frame_cache::FrameCache;
+use super::reply::{json_body, Reply};
 use super::serve::{page_asset, path_parts, Pages};
 use crate::error::{Error, Result};
 use crate::seed::{parse_seeds, read_seeds, to_toml, Seeds, MIN_BOX_PX};
