@@ -338,10 +338,6 @@ pub fn solve_with(
     }
 }
 
-/// Fuses the sides' positions `(position, accumulated variance, time weight)`: weights are the
-/// time weight over the variance; a side on its own key (variance 0) wins outright. The doubt
-/// is the fused standard deviation, or, between two keys, the passes' disagreement scaled by
-/// how far the frame is from the nearer key, whichever is larger.
 /// Half the Lucas–Kanade window's side for a joint whose rectangle's smaller side is `side`
 /// px: the window spans about 1.2 rectangles, so that it follows the part the user framed
 /// rather than its neighbours, within 4 and `max` px.
@@ -364,6 +360,10 @@ pub fn status(sigma_px: f32) -> Status {
     }
 }
 
+/// Fuses the sides' positions `(position, accumulated variance, time weight)`: weights are the
+/// time weight over the variance; a side on its own key (variance 0) wins outright. The doubt
+/// is the fused standard deviation, or, between two keys, the passes' disagreement scaled by
+/// how far the frame is from the nearer key, whichever is larger.
 fn fuse(sides: &[(Point, f64, f64)], two_keys: bool, lam: f64) -> Solved {
     if let Some(&(p, _, _)) = sides.iter().find(|s| s.1 == 0.0 && s.2 > 0.0) {
         return Solved {
