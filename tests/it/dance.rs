@@ -181,12 +181,13 @@ fn the_dance_keyed_every_50_and_25_frames_beats_interpolating_the_keys() {
     let s25 = keyed_run(&clip, &dir, 25, tmp.path());
     println!("dance, keys every 50: {s50:?}\ndance, keys every 25: {s25:?}");
     // Measured over the 16 seeded joints (the labels' right ankle is not in the seed file;
-    // `eval` counts its 440 points as misses and reports 72.0 / 80.5 %): keys every 50, PCK@20
-    // 76.5 % against 62.0 % for interpolation, 8.9 % of `ok` over 20 px off; every 25, 85.5 %
-    // against 78.6 %, 7.1 %. The issue asks for 85 / 90 % (docs/benchmarks.md).
-    assert!(s50.pck20 >= 0.76 && s25.pck20 >= 0.85, "{s50:?} {s25:?}");
-    assert!(s50.pck20 >= s50.interp20 + 0.14, "{s50:?}");
-    assert!(s25.pck20 >= s25.interp20 + 0.065, "{s25:?}");
+    // `eval` counts its 440 points as misses and reports 72.7 / 82.0 %): keys every 50, PCK@20
+    // 77.2 % against 62.0 % for interpolation, 9.1 % of `ok` over 20 px off; every 25, 87.0 %
+    // against 78.6 %, 6.4 %. Before spans in doubt whose blend lost the body were led by flow
+    // (`keyed::settle`): 76.2 / 85.2 %. The issue asks for 85 / 90 % (docs/benchmarks.md).
+    assert!(s50.pck20 >= 0.765 && s25.pck20 >= 0.865, "{s50:?} {s25:?}");
+    assert!(s50.pck20 >= s50.interp20 + 0.145, "{s50:?}");
+    assert!(s25.pck20 >= s25.interp20 + 0.08, "{s25:?}");
     assert!(
         s50.ok_wrong <= 0.10 && s25.ok_wrong <= 0.075,
         "{s50:?} {s25:?}"

@@ -382,11 +382,19 @@ impl Session {
                     .flatten()
                     .filter(|&&ok| ok)
                     .count();
-                let ok_share = seen as f32 / track_ok[*ia..=*ib].iter().flatten().count() as f32;
-                let keep_blend = keyed::keep_tracker(
-                    &misses,
-                    led_early.unwrap_or_else(|| keyed::lead(&misses, ok_share)),
-                );
+                let all = track_ok[*ia..=*ib].iter().flatten().count() as f32;
+                let body_ok = out
+                    .iter()
+                    .map(|(_, r)| r)
+                    .chain(at_next.iter())
+                    .skip(*ia)
+                    .take(ib - ia + 1)
+                    .flatten()
+                    .filter(|e| e.status == Status::Ok)
+                    .count();
+                let lead = led_early.unwrap_or_else(|| keyed::lead(&misses, seen as f32 / all));
+                let keep_blend =
+                    keyed::keep_tracker(&misses, keyed::settle(lead, body_ok as f32 / all));
                 let blend_kept = *ib == top && end.is_some() && back_here.is_some();
                 let len = (ib - ia) as f32;
                 for (t, row) in solved.rows.iter().enumerate().skip(1) {
