@@ -144,7 +144,9 @@ pub fn parse(
                     line,
                     Some(name),
                     format!(
-                        "no such joint in this run; its joints are {}",
+                        "no such joint in this run; its joints are {} (to track another joint, \
+                         add it to the seed file with `frame` on a frame that shows every joint \
+                         (earlier frames are tracked backward) and run `track` again)",
                         names.join(", ")
                     ),
                 ));

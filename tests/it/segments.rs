@@ -820,5 +820,15 @@ fn a_key_on_any_frame_pulls_the_frames_around_it() {
     )
     .unwrap();
     let o = run_bin(&["resume", s(&run), "--segment", "1", "-q"]);
-    assert_exit(&o, 2, &["keys.toml", "line 3", "elbow_x", "no such joint"]);
+    assert_exit(
+        &o,
+        2,
+        &[
+            "keys.toml",
+            "line 3",
+            "elbow_x",
+            "no such joint",
+            "seed file",
+        ],
+    );
 }
