@@ -27,7 +27,8 @@ pub fn report(run_dir: &Path, keys: usize) -> Result<crate::run::report::Report>
 /// `mocap2d eval`: accuracy of a run folder's tracks against ground truth, as printable lines
 /// (all joints first; when the ground truth has a `visible` column, the joints seen in the image
 /// and those hidden; the labelled joints the run lacks, counted as misses, and then the joints
-/// it has alone; then one line per joint when asked). Frames from the seed frame on. No joint name in common: exit 2.
+/// it has alone; then one line per joint when asked). Frames from the seed frame on. No joint
+/// name in common: exit 2.
 pub fn eval(run_dir: &Path, gt_path: &Path, per_joint: bool) -> Result<Vec<String>> {
     use crate::eval::{summarise, PointError};
     let rows = crate::run::tracks::read_tracks(&run_dir.join("tracks.csv"))?;
