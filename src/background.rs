@@ -164,13 +164,6 @@ impl Background {
         *ratios.select_nth_unstable_by(mid, f32::total_cmp).1
     }
 
-    /// [`Background::gain`] where the plate tells it from 1 (further off than
-    /// [`Background::gain_step`]), else exactly 1: a frame in the plate's own light is compared
-    /// with the plate's own levels.
-    pub fn gain_told(&self, frame: &RgbImage) -> f32 {
-        told(self.gain(frame), self.gain_step())
-    }
-
     /// How finely [`Background::gain`] can tell a gain (docs/method.md §1): one level on every
     /// channel of its median pixel, over that pixel's channel sum. The frame's background moves
     /// from level to level together as the exposure changes, so on a dark plate (the flies', at
@@ -442,7 +435,7 @@ mod tests {
             bg.noise_sigma()
         );
         assert!(bg.threshold > 100, "{}", bg.threshold);
-        let g = bg.gain_told(&frames[6]);
+        let g = told(bg.gain(&frames[6]), bg.gain_step());
         assert!((g - 1.149).abs() < 0.02, "{g}");
     }
 

@@ -313,15 +313,16 @@ impl Session {
                 .map(|(_, r)| r.iter().map(|e| e.pos).collect())
                 .chain(at_next.iter().map(|r| r.iter().map(|e| e.pos).collect()))
                 .collect();
-            let track_ok: Vec<Vec<bool>> = out
+            let ok_share = self.params.ok_share;
+            // The blend's rows, the next key's frame included.
+            let blended: Vec<&[JointEstimate]> = out
                 .iter()
                 .map(|(_, r)| r.as_slice())
                 .chain(at_next.as_deref())
-                .map(|r| {
-                    r.iter()
-                        .map(|e| e.fits_alone(self.params.ok_share))
-                        .collect()
-                })
+                .collect();
+            let track_ok: Vec<Vec<bool>> = blended
+                .iter()
+                .map(|r| r.iter().map(|e| e.fits_alone(ok_share)).collect())
                 .collect();
             let top = anchors.last().expect("two anchors").0;
             let pyramids: Vec<GreyPyramid> = match early_pyramids.take() {
@@ -377,24 +378,20 @@ impl Session {
                         })
                         .collect(),
                 };
-                let seen = track_ok[*ia..=*ib]
-                    .iter()
-                    .flatten()
-                    .filter(|&&ok| ok)
-                    .count();
-                let all = track_ok[*ia..=*ib].iter().flatten().count() as f32;
-                let body_ok = out
-                    .iter()
-                    .map(|(_, r)| r)
-                    .chain(at_next.iter())
-                    .skip(*ia)
-                    .take(ib - ia + 1)
-                    .flatten()
-                    .filter(|e| e.status == Status::Ok)
-                    .count();
-                let lead = led_early.unwrap_or_else(|| keyed::lead(&misses, seen as f32 / all));
-                let keep_blend =
-                    keyed::keep_tracker(&misses, keyed::settle(lead, body_ok as f32 / all));
+                // The share of the span's joint-frames where `keep` holds.
+                let span = &blended[*ia..=*ib];
+                let all = span.iter().map(|r| r.len()).sum::<usize>() as f32;
+                let share = |keep: fn(&JointEstimate, f32) -> bool| {
+                    let n = span
+                        .iter()
+                        .flat_map(|r| r.iter())
+                        .filter(|e| keep(e, ok_share));
+                    n.count() as f32 / all
+                };
+                let lead = led_early
+                    .unwrap_or_else(|| keyed::lead(&misses, share(JointEstimate::fits_alone)));
+                let body_share = share(|e, _| e.status == Status::Ok);
+                let keep_blend = keyed::keep_tracker(&misses, keyed::settle(lead, body_share));
                 let blend_kept = *ib == top && end.is_some() && back_here.is_some();
                 let len = (ib - ia) as f32;
                 for (t, row) in solved.rows.iter().enumerate().skip(1) {
