@@ -40,6 +40,7 @@ use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::mpsc::Receiver;
 
+mod ahead;
 mod flow;
 mod pass;
 mod segment;
@@ -227,10 +228,7 @@ impl Session {
                 t
             }
             Appearance::Learnt(k, bytes) | Appearance::LearntMoved(k, bytes) => {
-                let mut t = self.seed_tracker()?;
-                if !t.restore_state(bytes) {
-                    return Err(self.state_error(k, "does not fit this run"));
-                }
+                let mut t = self.restored(k, bytes)?;
                 if let Appearance::LearntMoved(..) = appearance {
                     let centres: Vec<_> = start.seeds.boxes().iter().map(|b| b.centre()).collect();
                     t.restart_moving(&centres);
@@ -244,6 +242,16 @@ impl Session {
             _ => start.angles.clone(),
         };
         Ok(Pass::new(t, &angles, start.seeds.frame))
+    }
+
+    /// The tracker that learnt `state` ([`Tracker::state`]), which segment `k` carries on with
+    /// (built on the seed frame, then given the state).
+    fn restored(&self, k: u64, state: &[u8]) -> Result<Tracker> {
+        let mut t = self.seed_tracker()?;
+        if !t.restore_state(state) {
+            return Err(self.state_error(k, "does not fit this run"));
+        }
+        Ok(t)
     }
 
     /// A tracker built on segment file `start`'s frame `frame` from its rectangles; off the seed
@@ -269,11 +277,10 @@ impl Session {
         progress: &dyn Progress,
     ) -> Result<Finished> {
         let plan = self.plan();
-        let mut frames = Frames {
-            inner: frames.map(|item| item.map(|(i, f)| (i, f.into()))),
+        let mut frames = Frames::new(
+            frames.map(|item| item.map(|(i, f)| (i, f.into()))),
             progress,
-            count: 0,
-        };
+        );
         let start_frame = plan.first_frame(first_segment);
         // From segment 0, the frames before the seed frame are held, to be tracked backward
         // from it (at most `BEFORE_SEED_BYTES` of them: the latest).

@@ -832,3 +832,63 @@ fn a_key_on_any_frame_pulls_the_frames_around_it() {
         ],
     );
 }
+
+/// A span between keys that crosses a segment's end is solved through both keys: a key on
+/// frame 25 (segment 1 of 20-frame segments) that moves a joint 12 px right of where the tool
+/// had it pulls that joint on frames 20–24 and on segment 0's last frames toward it, when the
+/// key before it is on frame 15; segment 1's file holds the row solved on its first frame, and
+/// resuming from segment 1 repeats the same bytes.
+#[test]
+fn a_key_past_a_segments_end_pulls_the_frames_before_that_end() {
+    let clip = Synth::new(Scenario::Walk, 320, 180, Some(60));
+    let run = clip.path("run");
+    clip.track("run", 20);
+    let names: Vec<String> = read_seeds(&clip.path("joints.toml"))
+        .unwrap()
+        .0
+        .joints
+        .iter()
+        .map(|j| j.name.clone())
+        .collect();
+    let x_of = |frame: u64, joint: &str| -> (f32, f32) {
+        let rows = read_tracks(&run.join("tracks.csv")).unwrap();
+        let r = rows
+            .iter()
+            .find(|r| r.frame == frame && r.joint == joint)
+            .unwrap();
+        (r.x, r.y)
+    };
+    let j = names.iter().find(|n| n.contains("wrist")).unwrap().clone();
+    let before: Vec<(f32, f32)> = (0..30).map(|f| x_of(f, &j)).collect();
+    let (xa, ya) = before[15];
+    let (xb, yb) = before[25];
+    std::fs::write(
+        run.join("keys.toml"),
+        format!(
+            "[[key]]\nframe = 15\n{j} = [{xa}, {ya}]\n\n[[key]]\nframe = 25\n{j} = [{}, {yb}]\n",
+            xb + 12.0
+        ),
+    )
+    .unwrap();
+    resume_run(&run, Some(0)).unwrap();
+    let shift = |f: u64| x_of(f, &j).0 - before[f as usize].0;
+    let shifts: Vec<f32> = (15..=25).map(shift).collect();
+    println!("{j}: moved right on frames 15-25 by {shifts:.1?} px");
+    assert!(shift(15).abs() < 1e-3 && (shift(25) - 12.0).abs() < 1e-3);
+    // Segment 0's last frame is pulled toward the key in segment 1, as is segment 1's first.
+    assert!(shift(19) > 2.0, "frame 19 moved {:.2} px", shift(19));
+    assert!(shift(20) > 2.5, "frame 20 moved {:.2} px", shift(20));
+    assert!(shift(16) < shift(24), "{shifts:?}");
+    let (file, _) = read_seeds(&file_path(&run, 1)).unwrap();
+    let in_file = file.joints.iter().find(|x| x.name == j).unwrap().bbox.cx;
+    assert!(
+        (in_file - x_of(20, &j).0).abs() < 0.01,
+        "{in_file} in segments/001.toml"
+    );
+    let whole = std::fs::read(run.join("tracks.csv")).unwrap();
+    resume_run(&run, Some(1)).unwrap();
+    assert!(
+        whole == std::fs::read(run.join("tracks.csv")).unwrap(),
+        "resuming from segment 1 changed tracks.csv"
+    );
+}

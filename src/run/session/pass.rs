@@ -7,6 +7,7 @@ use crate::geom::Point;
 use crate::progress::Progress;
 use crate::track::scale::Frame;
 use crate::track::{gapfill::GapFiller, JointEstimate, Tracker};
+use std::collections::VecDeque;
 
 /// Where a segment tracker's appearance model is built.
 #[derive(Debug, Clone, Copy)]
@@ -102,11 +103,27 @@ impl Pass {
 pub(super) struct Frames<'p, I> {
     pub(super) inner: I,
     pub(super) progress: &'p dyn Progress,
+    /// One past the index of the last frame handed out.
     pub(super) count: u64,
+    /// Frames read ahead and given back ([`Frames::unread`]), handed out again first.
+    pub(super) pending: VecDeque<(u64, Frame)>,
 }
 
-impl<I: Iterator<Item = Result<(u64, Frame)>>> Frames<'_, I> {
+impl<'p, I: Iterator<Item = Result<(u64, Frame)>>> Frames<'p, I> {
+    pub(super) fn new(inner: I, progress: &'p dyn Progress) -> Self {
+        Frames {
+            inner,
+            progress,
+            count: 0,
+            pending: VecDeque::new(),
+        }
+    }
+
     pub(super) fn next(&mut self) -> Result<Option<(u64, Frame)>> {
+        if let Some((idx, frame)) = self.pending.pop_front() {
+            self.count = idx + 1;
+            return Ok(Some((idx, frame)));
+        }
         match self.inner.next() {
             None => Ok(None),
             Some(item) => {
@@ -117,6 +134,17 @@ impl<I: Iterator<Item = Result<(u64, Frame)>>> Frames<'_, I> {
                 }
                 Ok(Some((idx, frame)))
             }
+        }
+    }
+
+    /// Gives back `frames` (read in order, the last ones read): they are handed out again, in
+    /// that order, before any new frame (progress counts them once).
+    pub(super) fn unread(&mut self, frames: Vec<(u64, Frame)>) {
+        if let Some((idx, _)) = frames.first() {
+            self.count = *idx;
+        }
+        for f in frames.into_iter().rev() {
+            self.pending.push_front(f);
         }
     }
 }

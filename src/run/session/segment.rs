@@ -2,9 +2,9 @@
 //! their blend, and between keys the path solved through both ends (docs/method.md §3, "Motion
 //! between keys").
 
-use super::flow;
 use super::pass::{Appearance, Frames, Pass};
 use super::Session;
+use super::{ahead, flow};
 use crate::error::Result;
 use crate::geom::Point;
 use crate::run::keyed;
@@ -77,7 +77,11 @@ impl Session {
             .filter(|x| x.frame > first_frame && x.frame < next)
             .collect();
         let key_next = keys.iter().find(|x| x.frame == next);
-        let hold = end.is_some() || !inner.is_empty() || key_next.is_some();
+        // A key inside the next segment that this segment's last key is solved through, read
+        // ahead past the segment's end ([`ahead`]).
+        let past_end = ahead::key_past_end(keys, next, plan.first_frame(k + 2), end.is_some())
+            .filter(|_| keyframe || key_here.is_some() || !inner.is_empty());
+        let hold = end.is_some() || !inner.is_empty() || key_next.is_some() || past_end.is_some();
         // Between two corrections with no key inside, the passes that only feed the blend wait
         // until the span is known not to be led by flow ([`keyed::lead`]): where it is,
         // the carried pass and the one backward from the correction decide, at two passes'
@@ -143,6 +147,13 @@ impl Session {
         self.carried = Some(tracker.state());
         if keyframe {
             out[0].1 = start.row.clone();
+        } else if key_here.is_none() && (!inner.is_empty() || key_next.is_some()) {
+            // The previous segment's last span ran on to this segment's first key: the row
+            // solved on this frame, which the tool wrote into this segment's file ([`ahead`]),
+            // is where this segment's first span starts.
+            for (e, s) in out[0].1.iter_mut().zip(&start.row) {
+                (e.pos, e.score, e.status) = (s.pos, s.score, s.status);
+            }
         }
         if let Some(key) = key_here {
             keyed_row(&mut out[0].1, key);
@@ -283,9 +294,14 @@ impl Session {
         }
         // Between two keys, the path through both ([`crate::run::keyed`]): from the segment's
         // first frame through every key inside it to the next segment's file when that is a
-        // correction (or the clip's last frame is), or to a key on the next segment's first frame.
+        // correction (or the clip's last frame is), to a key on the next segment's first frame,
+        // or on to the first key inside the next segment.
         let last = boundary.as_ref().or(tail.as_ref());
         let n = held.len();
+        let ahead = match (past_end, &boundary) {
+            (Some(key), Some(_)) => self.read_ahead(k + 1, next, key.frame, frames, &mut built)?,
+            _ => None,
+        };
         let mut anchors: Vec<(usize, Vec<Option<Point>>)> =
             vec![(0, out[0].1.iter().map(|e| Some(e.pos)).collect())];
         anchors.extend(
@@ -302,24 +318,30 @@ impl Session {
             }
             _ => {}
         }
+        if let (Some(a), Some(key)) = (&ahead, past_end) {
+            anchors.push((n + 1 + a.frames.len(), key.joints.clone()));
+        }
         if anchors.len() > 1 {
+            let ahead_frames = ahead.iter().flat_map(|a| a.frames.iter().map(|(_, f)| f));
             let images: Vec<&RgbImage> = std::iter::once(first)
                 .chain(held.iter())
                 .chain(last)
+                .chain(ahead_frames)
                 .map(|f| f.full())
                 .collect();
-            let mut track_pos: Vec<Vec<Point>> = out
-                .iter()
-                .map(|(_, r)| r.iter().map(|e| e.pos).collect())
-                .chain(at_next.iter().map(|r| r.iter().map(|e| e.pos).collect()))
-                .collect();
-            let ok_share = self.params.ok_share;
-            // The blend's rows, the next key's frame included.
+            let ahead_rows = ahead.iter().flat_map(|a| a.rows.iter());
+            // The blend's rows, the next key's frame included (and the frames read ahead).
             let blended: Vec<&[JointEstimate]> = out
                 .iter()
                 .map(|(_, r)| r.as_slice())
                 .chain(at_next.as_deref())
+                .chain(ahead_rows.map(Vec::as_slice))
                 .collect();
+            let mut track_pos: Vec<Vec<Point>> = blended
+                .iter()
+                .map(|r| r.iter().map(|e| e.pos).collect())
+                .collect();
+            let ok_share = self.params.ok_share;
             let track_ok: Vec<Vec<bool>> = blended
                 .iter()
                 .map(|r| r.iter().map(|e| e.fits_alone(ok_share)).collect())
@@ -429,12 +451,27 @@ impl Session {
                     e.status = keyed::status(doubt[i][j]);
                 }
             }
+            // The next segment's first frame, on a span that runs on past it: the row it starts
+            // from.
+            if let (Some(_), Some(row)) = (&ahead, at_next.as_mut()) {
+                for (j, e) in row.iter_mut().enumerate() {
+                    if !doubt[n + 1][j].is_nan() {
+                        e.pos = track_pos[n + 1][j];
+                        e.score = keyed::score(doubt[n + 1][j]);
+                        e.status = keyed::status(doubt[n + 1][j]);
+                    }
+                }
+            }
             for key in &inner {
                 keyed_row(&mut out[(key.frame - first_frame) as usize].1, key);
             }
             if let (None, Some(key), Some(row)) = (&end, key_next, at_next.as_mut()) {
                 keyed_row(row, key);
             }
+        }
+        // The frames read ahead are the next segment's.
+        if let Some(a) = ahead {
+            frames.unread(a.frames);
         }
         // Hidden stretches are filled again over the whole segment at once, between where the
         // joint was seen on either side and with the frames around each gap at hand (the pass's

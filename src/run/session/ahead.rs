@@ -1,0 +1,91 @@
+//! A span between keys that runs past a segment's end, for [`super::segment`] (docs/method.md,
+//! "Keys across a segment's end"): when the next segment's first frame is neither a correction
+//! nor a key, the frames after it up to the first key inside that segment are read ahead and
+//! tracked by the tracker that segment carries on with, so that the path from this segment's
+//! last key to that key is solved through both. The frames then go back to the stream, and the
+//! next segment starts from the row solved on its first frame (its file's).
+
+use super::flow;
+use super::pass::{Frames, Pass};
+use super::Session;
+use crate::error::Result;
+use crate::run::keys::Key;
+use crate::track::scale::Frame;
+use crate::track::JointEstimate;
+
+/// Most bytes of frames read ahead past a segment's end (about 190 frames of 1280×720, full and
+/// working images): a key further on is not reached, and the span is not bridged.
+const AHEAD_BYTES: usize = 512 << 20;
+
+/// The frames read ahead past a segment's end, up to and with a key's frame, and the carried
+/// tracker's rows on them.
+pub(super) struct Ahead {
+    pub(super) frames: Vec<(u64, Frame)>,
+    pub(super) rows: Vec<Vec<JointEstimate>>,
+}
+
+/// The key a span from segment `k` runs on to: the first key after the next segment's first
+/// frame `next`, inside the next segment (or on the one after's first frame), when neither a
+/// correction (`corrected_next`) nor a key sits on `next`.
+pub(super) fn key_past_end(
+    keys: &[Key],
+    next: u64,
+    after_next: u64,
+    corrected_next: bool,
+) -> Option<&Key> {
+    if corrected_next || keys.iter().any(|x| x.frame == next) {
+        return None;
+    }
+    keys.iter()
+        .find(|x| x.frame > next && x.frame <= after_next)
+}
+
+impl Session {
+    /// Reads the frames after `from` (the next segment's first frame, just tracked) up to
+    /// `key_frame` and tracks them with the tracker segment `k1` carries on with (the state
+    /// kept in [`Session::carried`]), their Lucas–Kanade pyramids built alongside (`built`).
+    /// `None` when the clip ends first, or the frames up to the key would take more than
+    /// [`AHEAD_BYTES`]: the frames read are given back.
+    pub(super) fn read_ahead<I: Iterator<Item = Result<(u64, Frame)>>>(
+        &self,
+        k1: u64,
+        from: u64,
+        key_frame: u64,
+        frames: &mut Frames<'_, I>,
+        built: &mut flow::Built,
+    ) -> Result<Option<Ahead>> {
+        let state = self
+            .carried
+            .as_deref()
+            .expect("the segment's tracker was kept");
+        let t = self.restored(k1, state)?;
+        let angles: Vec<f32> = t.current().iter().map(|e| e.angle_rad).collect();
+        let mut pass = Pass::new(t, &angles, from);
+        let mut read: Vec<(u64, Frame)> = Vec::new();
+        let (mut bytes, mut reached) = (0usize, false);
+        while let Some((idx, frame)) = frames.next()? {
+            bytes += frame.bytes();
+            let over = bytes > AHEAD_BYTES;
+            if !over {
+                rayon::join(|| pass.step(idx, &frame), || built.add(&frame));
+                reached = idx == key_frame;
+            }
+            read.push((idx, frame));
+            if over || idx >= key_frame {
+                break;
+            }
+        }
+        if !reached {
+            frames.unread(read);
+            return Ok(None);
+        }
+        let rows: Vec<Vec<JointEstimate>> = pass
+            .finish()
+            .into_iter()
+            .filter(|(f, _)| *f > from)
+            .map(|(_, r)| r)
+            .collect();
+        debug_assert_eq!(rows.len(), read.len());
+        Ok(Some(Ahead { frames: read, rows }))
+    }
+}
