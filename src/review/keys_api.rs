@@ -61,6 +61,12 @@ impl Api {
         })
     }
 
+    /// The segment to resume from for a key on frame `f`: the one before the segment holding it
+    /// ([`crate::run::segments::Plan::resume_for_key`]).
+    fn resume_number(&self, f: u64) -> Option<u64> {
+        self.segment_number(f).map(|k| k.saturating_sub(1))
+    }
+
     /// `tracks.csv` now (read again when its time or size has changed).
     fn tracks(&self) -> crate::error::Result<Arc<Vec<TrackRow>>> {
         let path = self.data.dir.join("tracks.csv");
@@ -122,6 +128,7 @@ impl Api {
             &json!({
                 "frame": f, "joints": joints, "keyed": keyed, "keys": keys_at,
                 "keys_error": keys_error, "segment": self.segment_number(f),
+                "resume_from": self.resume_number(f),
             }),
         )
     }
@@ -253,12 +260,13 @@ impl Api {
             })
             .unwrap_or_default();
         let segment = self.segment_number(edit.frame);
-        let command =
-            segment.map(|k| format!("mocap2d resume {} --segment {k}", self.data.dir.display()));
+        let resume_from = self.resume_number(edit.frame);
+        let command = resume_from
+            .map(|k| format!("mocap2d resume {} --segment {k}", self.data.dir.display()));
         let answer = |saved: bool| {
             json!({
                 "saved": saved, "file": "keys.toml", "frame": edit.frame, "keyed": keyed,
-                "segment": segment, "command": command,
+                "segment": segment, "resume_from": resume_from, "command": command,
             })
         };
         if text == old_text {

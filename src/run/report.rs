@@ -250,8 +250,8 @@ impl Report {
                 "Frames worth keying next, most worth first: {}. Keyed together they leave the \
                  least doubt over the clip (`mocap2d report RUN --keys K` names K of them). A \
                  key on a frame (in `keys.toml`, any subset of joints) pulls the frames around \
-                 it; then run `mocap2d resume RUN --segment K` from the segment that holds the \
-                 first.\n",
+                 it; then run `mocap2d resume RUN --segment K` from the segment before the one \
+                 that holds the first (a key pulls the end of that segment too).\n",
                 list.join(", ")
             );
         }

@@ -38,6 +38,12 @@ impl Plan {
         frame.saturating_sub(self.seed_frame) / self.len
     }
 
+    /// The segment to resume from for a key on `frame`: the one before the segment holding it,
+    /// whose last span the key pulls too (docs/method.md, "Keys across a segment's end").
+    pub fn resume_for_key(&self, frame: u64) -> u64 {
+        self.segment_of(frame).saturating_sub(1)
+    }
+
     /// Number of segments of a clip of `frames` frames.
     pub fn count(&self, frames: u64) -> u64 {
         frames.saturating_sub(self.seed_frame).div_ceil(self.len)
@@ -392,6 +398,7 @@ mod tests {
         assert_eq!(p.first_frame(2), 70);
         assert_eq!(p.segment_of(69), 1);
         assert_eq!(p.segment_of(70), 2);
+        assert_eq!([0, 69, 70, 71].map(|f| p.resume_for_key(f)), [0, 0, 1, 1]);
         assert_eq!(p.count(70), 2);
         assert_eq!(p.count(71), 3);
         assert_eq!(p.count(5), 0);

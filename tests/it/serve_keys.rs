@@ -48,8 +48,10 @@ fn a_key_saved_from_the_page_is_kept_and_resume_puts_the_joint_on_it() {
         (200, Some(true), &1.into()),
         "{r}"
     );
+    // Resumed from the segment before the key's, whose last frames the key pulls too.
+    assert_eq!(r["resume_from"], 0, "{r}");
     assert!(
-        r["command"].as_str().unwrap().ends_with("--segment 1"),
+        r["command"].as_str().unwrap().ends_with("--segment 0"),
         "{r}"
     );
     let (_, f) = srv.json("GET", "/api/frames/15", b"");

@@ -173,11 +173,13 @@ function showNext() {
   const code = document.createElement("code");
   code.textContent = lastSaved.command;
   p.append(code);
-  const seg = segmentOf(kframe.frame);
-  if (run.resume && seg && seg.file) {
+  // From the segment before the key's: the key pulls that segment's last frames too.
+  const k = lastSaved.resume_from;
+  const file = run.segments.find((s) => Number(s.id) === k);
+  if (run.resume && file) {
     p.append(" or press the button.");
-    b.textContent = `Resume segment ${seg.file.id}`;
-    b.dataset.id = seg.file.id;
+    b.textContent = `Resume segment ${file.id}`;
+    b.dataset.id = file.id;
     b.hidden = false;
   }
 }
