@@ -194,6 +194,69 @@ fn the_dance_keyed_every_50_and_25_frames_beats_interpolating_the_keys() {
     );
 }
 
+/// PCK@20 (0–1) of a run over the labelled points of the joints it tracks.
+fn pck20(run: &Path, gt: &Labels) -> f64 {
+    let rows = read_tracks(&run.join("tracks.csv")).unwrap();
+    let (mut n, mut hit) = (0usize, 0usize);
+    for r in &rows {
+        if let Some(&(x, y)) = gt.get(&(r.frame, r.joint.clone())) {
+            n += 1;
+            hit += ((r.x - x).hypot(r.y - y) <= 20.0) as usize;
+        }
+    }
+    hit as f64 / n.max(1) as f64
+}
+
+/// Keys of `keys.toml` every 25 frames from frame 12 on (and on the last frame), none on a
+/// segment's start: in segments of 150 frames the dance scores what it scores in one segment,
+/// the spans across the segments' ends solved through both keys.
+#[test]
+#[ignore = "long clip: run with cargo test --release --test it dance:: -- --ignored"]
+fn keys_off_the_segments_starts_are_solved_across_the_segments_ends() {
+    let Some(dir) = dance() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let gt = labels(&dir);
+    let (seeds, _) = read_seeds(&dir.join("joints.toml")).unwrap();
+    let frames: Vec<u64> = (12..449).step_by(25).chain([449]).collect();
+    let mut text = String::new();
+    for f in &frames {
+        text.push_str(&format!("[[key]]\nframe = {f}\n"));
+        for j in &seeds.joints {
+            if let Some((x, y)) = gt.get(&(*f, j.name.clone())) {
+                text.push_str(&format!("{} = [{x}, {y}]\n", j.name));
+            }
+        }
+    }
+    let score = |segment_len: u64| -> f64 {
+        let run = tmp.path().join(format!("run-{segment_len}"));
+        let opts = TrackOptions {
+            out: Some(run.clone()),
+            segment_len,
+            ..TrackOptions::new(dir.join("clip.mp4"), dir.join("joints.toml"))
+        };
+        track(&opts, &NoProgress).unwrap();
+        std::fs::write(run.join("keys.toml"), &text).unwrap();
+        let opts = ResumeOptions {
+            run: run.clone(),
+            segment: Some(0),
+            ..Default::default()
+        };
+        resume(&opts, &NoProgress).unwrap();
+        pck20(&run, &gt)
+    };
+    let (segmented, whole) = (score(150), score(1000));
+    println!(
+        "keys every 25 from frame 12: PCK@20 {segmented:.4} in segments of 150, {whole:.4} in one"
+    );
+    // Measured: 84.1 % in both (seeded joints); before spans ran across the segments' ends,
+    // 80.4 % in segments of 150, the frames around each end 10–24 points down.
+    assert!(segmented >= 0.835, "{segmented}");
+    assert!(
+        (segmented - whole).abs() <= 0.01,
+        "{segmented} against {whole}"
+    );
+}
+
 /// The seed file rooted at `root` instead: the parent links on the path from `root` to the old
 /// root turned round, everything else as it was.
 fn rerooted(dir: &Path, root: &str, out: &Path) -> PathBuf {
