@@ -1,9 +1,9 @@
 //! A span between keys that runs past a segment's end, for [`super::segment`] (docs/method.md,
 //! "Keys across a segment's end"): when the next segment's first frame is neither a correction
-//! nor a key, the frames after it up to the first key inside that segment are read ahead and
-//! tracked by the tracker that segment carries on with, so that the path from this segment's
-//! last key to that key is solved through both. The frames then go back to the stream, and the
-//! next segment starts from the row solved on its first frame (its file's).
+//! nor a key, the frames after it up to the next key (in that segment or a later one) are read
+//! ahead and tracked by the tracker that segment carries on with, so that the path from this
+//! segment's last key to that key is solved through both. The frames then go back to the stream,
+//! and the next segment starts from the row solved on its first frame (its file's).
 
 use super::flow;
 use super::pass::{Frames, Pass};
@@ -24,20 +24,22 @@ pub(super) struct Ahead {
     pub(super) rows: Vec<Vec<JointEstimate>>,
 }
 
-/// The key a span from segment `k` runs on to: the first key after the next segment's first
-/// frame `next`, inside the next segment (or on the one after's first frame), when neither a
-/// correction (`corrected_next`) nor a key sits on `next`.
+/// The key a segment's last span runs on to: the first key after the next segment's first frame
+/// `next`, when neither a correction (`corrected_next`) nor a key sits on `next`, and the frames
+/// up to it, of `frame_bytes` each, fit in [`AHEAD_BYTES`].
 pub(super) fn key_past_end(
     keys: &[Key],
     next: u64,
-    after_next: u64,
     corrected_next: bool,
+    frame_bytes: usize,
 ) -> Option<&Key> {
     if corrected_next || keys.iter().any(|x| x.frame == next) {
         return None;
     }
+    let most = (AHEAD_BYTES / frame_bytes.max(1)) as u64;
     keys.iter()
-        .find(|x| x.frame > next && x.frame <= after_next)
+        .find(|x| x.frame > next)
+        .filter(|x| x.frame - next <= most)
 }
 
 impl Session {
@@ -87,5 +89,33 @@ impl Session {
             .collect();
         debug_assert_eq!(rows.len(), read.len());
         Ok(Some(Ahead { frames: read, rows }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_span_runs_on_to_the_next_key_unless_the_boundary_is_keyed_or_it_is_too_far() {
+        let keys: Vec<Key> = [40, 150, 400]
+            .map(|frame| Key {
+                frame,
+                joints: Vec::new(),
+            })
+            .to_vec();
+        let at = |next: u64, corrected: bool, bytes: usize| {
+            key_past_end(&keys, next, corrected, bytes).map(|k| k.frame)
+        };
+        let mb = 1 << 20;
+        assert_eq!(at(30, false, mb), Some(40));
+        assert_eq!(at(100, false, mb), Some(150));
+        // A key on the boundary, or a corrected file there, is the span's end already.
+        assert_eq!(at(150, false, mb), None);
+        assert_eq!(at(100, true, mb), None);
+        // 250 frames ahead fit in 512 MiB at 1 MiB a frame, not at 4 MiB.
+        assert_eq!(at(160, false, mb), Some(400));
+        assert_eq!(at(160, false, 4 * mb), None);
+        assert_eq!(at(400, false, mb), None);
     }
 }

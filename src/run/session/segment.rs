@@ -77,10 +77,9 @@ impl Session {
             .filter(|x| x.frame > first_frame && x.frame < next)
             .collect();
         let key_next = keys.iter().find(|x| x.frame == next);
-        // A key inside the next segment that this segment's last key is solved through, read
-        // ahead past the segment's end ([`ahead`]).
-        let past_end = ahead::key_past_end(keys, next, plan.first_frame(k + 2), end.is_some())
-            .filter(|_| keyframe || key_here.is_some() || !inner.is_empty());
+        // The key after the segment's end that its last span is solved through, read ahead
+        // ([`ahead`]).
+        let past_end = ahead::key_past_end(keys, next, end.is_some(), first.bytes());
         let hold = end.is_some() || !inner.is_empty() || key_next.is_some() || past_end.is_some();
         // Between two corrections with no key inside, the passes that only feed the blend wait
         // until the span is known not to be led by flow ([`keyed::lead`]): where it is,
@@ -147,10 +146,12 @@ impl Session {
         self.carried = Some(tracker.state());
         if keyframe {
             out[0].1 = start.row.clone();
-        } else if key_here.is_none() && (!inner.is_empty() || key_next.is_some()) {
-            // The previous segment's last span ran on to this segment's first key: the row
-            // solved on this frame, which the tool wrote into this segment's file ([`ahead`]),
-            // is where this segment's first span starts.
+        } else if key_here.is_none()
+            && (!inner.is_empty() || key_next.is_some() || past_end.is_some())
+        {
+            // The previous segment's last span ran on to the next key: the row solved on this
+            // frame, which the tool wrote into this segment's file ([`ahead`]), is where this
+            // segment's first span starts.
             for (e, s) in out[0].1.iter_mut().zip(&start.row) {
                 (e.pos, e.score, e.status) = (s.pos, s.score, s.status);
             }
