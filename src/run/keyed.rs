@@ -413,6 +413,9 @@ fn fuse(sides: &[(Point, f64, f64)], two_keys: bool, lam: f64) -> Solved {
     }
 }
 
+mod spans;
+pub use spans::joint_spans;
+
 #[cfg(test)]
 mod tests {
     use super::*;

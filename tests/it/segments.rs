@@ -833,56 +833,79 @@ fn a_key_on_any_frame_pulls_the_frames_around_it() {
     );
 }
 
+/// The x of `joint` on `frame` in a run's `tracks.csv`.
+fn x_at(run: &Path, frame: u64, joint: &str) -> f32 {
+    let rows = read_tracks(&run.join("tracks.csv")).unwrap();
+    rows.iter()
+        .find(|r| r.frame == frame && r.joint == joint)
+        .unwrap()
+        .x
+}
+
+/// Tracks the walk in segments of `len` frames, keys a wrist where the tool had it on frame 15
+/// and 12 px right of that on frame 25, and a knee 3 px right of where the tool had it on each
+/// frame of `knee_on`; resumes from segment 0. Returns the run, the wrist's name and how far it
+/// moved right on frames 0–29 (px).
+fn wrist_pulled(clip: &Synth, len: u64, knee_on: &[u64]) -> (PathBuf, String, Vec<f32>) {
+    let run = clip.path("run");
+    clip.track("run", len);
+    let (seeds, _) = read_seeds(&clip.path("joints.toml")).unwrap();
+    let name = |part: &str| {
+        let j = seeds.joints.iter().find(|j| j.name.contains(part));
+        j.unwrap().name.clone()
+    };
+    let (wrist, knee) = (name("wrist"), name("knee"));
+    let row = |f: u64, j: &str| {
+        let rows = read_tracks(&run.join("tracks.csv")).unwrap();
+        let r = rows.into_iter().find(|r| r.frame == f && r.joint == j);
+        r.map(|r| (r.x, r.y)).unwrap()
+    };
+    let before: Vec<f32> = (0..30).map(|f| x_at(&run, f, &wrist)).collect();
+    let mut keys: Vec<(u64, String)> = [(15, 0.0), (25, 12.0)]
+        .map(|(f, dx)| {
+            let (x, y) = row(f, &wrist);
+            (f, format!("{wrist} = [{}, {y}]\n", x + dx))
+        })
+        .to_vec();
+    for &f in knee_on {
+        let (x, y) = row(f, &knee);
+        keys.push((f, format!("{knee} = [{}, {y}]\n", x + 3.0)));
+    }
+    keys.sort();
+    let text: String = keys
+        .iter()
+        .map(|(f, line)| format!("[[key]]\nframe = {f}\n{line}\n"))
+        .collect();
+    std::fs::write(run.join("keys.toml"), text).unwrap();
+    resume_run(&run, Some(0)).unwrap();
+    let shifts = (0..30)
+        .map(|f| x_at(&run, f, &wrist) - before[f as usize])
+        .collect();
+    (run, wrist, shifts)
+}
+
 /// A span between keys that crosses a segment's end is solved through both keys: a key on
-/// frame 25 (segment 1 of 20-frame segments) that moves a joint 12 px right of where the tool
-/// had it pulls that joint on frames 20–24 and on segment 0's last frames toward it, when the
+/// frame 25 (segment 1 of 20-frame segments) that moves a wrist 12 px right of where the tool
+/// had it pulls the wrist on frames 20–24 and on segment 0's last frames toward it, when the
 /// key before it is on frame 15; segment 1's file holds the row solved on its first frame, and
 /// resuming from segment 1 repeats the same bytes.
 #[test]
 fn a_key_past_a_segments_end_pulls_the_frames_before_that_end() {
     let clip = Synth::new(Scenario::Walk, 320, 180, Some(60));
-    let run = clip.path("run");
-    clip.track("run", 20);
-    let names: Vec<String> = read_seeds(&clip.path("joints.toml"))
-        .unwrap()
-        .0
-        .joints
-        .iter()
-        .map(|j| j.name.clone())
-        .collect();
-    let x_of = |frame: u64, joint: &str| -> (f32, f32) {
-        let rows = read_tracks(&run.join("tracks.csv")).unwrap();
-        let r = rows
-            .iter()
-            .find(|r| r.frame == frame && r.joint == joint)
-            .unwrap();
-        (r.x, r.y)
-    };
-    let j = names.iter().find(|n| n.contains("wrist")).unwrap().clone();
-    let before: Vec<(f32, f32)> = (0..30).map(|f| x_of(f, &j)).collect();
-    let (xa, ya) = before[15];
-    let (xb, yb) = before[25];
-    std::fs::write(
-        run.join("keys.toml"),
-        format!(
-            "[[key]]\nframe = 15\n{j} = [{xa}, {ya}]\n\n[[key]]\nframe = 25\n{j} = [{}, {yb}]\n",
-            xb + 12.0
-        ),
-    )
-    .unwrap();
-    resume_run(&run, Some(0)).unwrap();
-    let shift = |f: u64| x_of(f, &j).0 - before[f as usize].0;
-    let shifts: Vec<f32> = (15..=25).map(shift).collect();
-    println!("{j}: moved right on frames 15-25 by {shifts:.1?} px");
-    assert!(shift(15).abs() < 1e-3 && (shift(25) - 12.0).abs() < 1e-3);
+    let (run, j, shift) = wrist_pulled(&clip, 20, &[]);
+    println!(
+        "{j}: moved right on frames 15-25 by {:.1?} px",
+        &shift[15..=25]
+    );
+    assert!(shift[15].abs() < 1e-3 && (shift[25] - 12.0).abs() < 1e-3);
     // Segment 0's last frame is pulled toward the key in segment 1, as is segment 1's first.
-    assert!(shift(19) > 2.0, "frame 19 moved {:.2} px", shift(19));
-    assert!(shift(20) > 2.5, "frame 20 moved {:.2} px", shift(20));
-    assert!(shift(16) < shift(24), "{shifts:?}");
+    assert!(shift[19] > 2.0, "frame 19 moved {:.2} px", shift[19]);
+    assert!(shift[20] > 2.5, "frame 20 moved {:.2} px", shift[20]);
+    assert!(shift[16] < shift[24], "{shift:?}");
     let (file, _) = read_seeds(&file_path(&run, 1)).unwrap();
     let in_file = file.joints.iter().find(|x| x.name == j).unwrap().bbox.cx;
     assert!(
-        (in_file - x_of(20, &j).0).abs() < 0.01,
+        (in_file - x_at(&run, 20, &j)).abs() < 0.01,
         "{in_file} in segments/001.toml"
     );
     let whole = std::fs::read(run.join("tracks.csv")).unwrap();
@@ -891,4 +914,27 @@ fn a_key_past_a_segments_end_pulls_the_frames_before_that_end() {
         whole == std::fs::read(run.join("tracks.csv")).unwrap(),
         "resuming from segment 1 changed tracks.csv"
     );
+}
+
+/// A key that gives other joints only is no end of a joint's span: keys of a knee on frames 18
+/// and 21, between the wrist's keys on 15 and 25, leave the wrist pulled toward its key on 25
+/// from frame 16 on, as without them (keys of some joints, as `serve` saves them).
+#[test]
+fn a_key_of_other_joints_does_not_cut_a_joints_span() {
+    let clip = Synth::new(Scenario::Walk, 320, 180, Some(40));
+    let (_, j, alone) = wrist_pulled(&clip, 100, &[]);
+    let clip = Synth::new(Scenario::Walk, 320, 180, Some(40));
+    let (_, _, cut) = wrist_pulled(&clip, 100, &[18, 21]);
+    println!(
+        "{j}: moved right on frames 15-25 by {:.1?} px, with the knee keyed on 18 and 21 {:.1?}",
+        &alone[15..=25],
+        &cut[15..=25]
+    );
+    assert!(cut[17] > 2.0 && cut[20] > 2.0, "{cut:?}");
+    for f in 16..25 {
+        assert!(
+            (cut[f] - alone[f]).abs() < 1.5,
+            "frame {f}: {cut:?} against {alone:?}"
+        );
+    }
 }

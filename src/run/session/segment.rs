@@ -360,8 +360,20 @@ impl Session {
             };
             let prm = keyed::KeyedParams::default();
             let mut doubt: Vec<Vec<f32>> = vec![vec![0.0; self.names.len()]; top + 1];
-            for pair in anchors.windows(2) {
-                let ((ia, ka), (ib, kb)) = (&pair[0], &pair[1]);
+            // Each joint from its key to its next one: a key that leaves a joint out is no end
+            // of that joint's span.
+            let keyed_at: Vec<Vec<bool>> = anchors
+                .iter()
+                .map(|(_, k)| k.iter().map(Option::is_some).collect())
+                .collect();
+            for (pa, pb, joints) in keyed::joint_spans(&keyed_at) {
+                let ((ia, ka), (ib, kb)) = (&anchors[pa], &anchors[pb]);
+                let kb: Vec<Option<Point>> = kb
+                    .iter()
+                    .zip(&joints)
+                    .map(|(k, &on)| k.filter(|_| on))
+                    .collect();
+                let kb = &kb;
                 let start_pos: Vec<Point> = ka
                     .iter()
                     .zip(&track_pos[*ia])
@@ -418,7 +430,7 @@ impl Session {
                 let blend_kept = *ib == top && end.is_some() && back_here.is_some();
                 let len = (ib - ia) as f32;
                 for (t, row) in solved.rows.iter().enumerate().skip(1) {
-                    for (j, s) in row.iter().enumerate() {
+                    for (j, s) in row.iter().enumerate().filter(|(j, _)| joints[*j]) {
                         match (keep_blend[j], blend_kept, kb[j]) {
                             (true, true, _) => doubt[ia + t][j] = f32::NAN,
                             (true, false, Some(xb)) => {
