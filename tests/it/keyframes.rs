@@ -65,3 +65,46 @@ fn bones_hidden_on_a_keyframe_keep_the_seed_appearance() {
     );
     assert!(adopted_on(open).is_empty());
 }
+
+/// A key that gives some joints only restarts those: a joint it leaves out keeps what the
+/// tracker knew of it (hidden stays hidden, its score stays), where a correction of every joint
+/// (`restart_moving`) calls each one seen on the key.
+#[test]
+fn a_key_of_some_joints_leaves_the_others_as_the_tracker_had_them() {
+    use mocap2d::track::Status;
+    let clip = synth_clip(Scenario::Occlude, 320, 180, 1, Some(40));
+    let seeds = parse_seeds(&clip.seeds_toml(), Path::new("seeds")).unwrap();
+    let at = |n: &str| clip.joint_names.iter().position(|x| x == n).unwrap();
+    let (knee, elbow) = (at("knee_l"), at("elbow_r"));
+    let sample: Vec<_> = clip.frames.iter().step_by(4).cloned().collect();
+    let plate = || Some(Background::fit(&sample).unwrap());
+    let mut t = Tracker::new(Default::default(), &seeds, &clip.frames[0], plate());
+    // Tracked to frame 34, where the far elbow is behind the torso.
+    for f in &clip.frames[1..=34] {
+        t.step(f);
+    }
+    let before = t.current();
+    assert!(
+        matches!(before[elbow].status, Status::Occluded | Status::Lost),
+        "{:?}",
+        before[elbow]
+    );
+    let mut centres: Vec<_> = before.iter().map(|e| e.pos).collect();
+    centres[knee].x += 3.0;
+    let keyed: Vec<bool> = (0..centres.len()).map(|j| j == knee).collect();
+    let mut some = Tracker::new(Default::default(), &seeds, &clip.frames[0], plate());
+    assert!(some.restore_state(&t.state()));
+    let mut all = Tracker::new(Default::default(), &seeds, &clip.frames[0], plate());
+    assert!(all.restore_state(&t.state()));
+    some.restart_moving_keyed(&centres, &keyed);
+    all.restart_moving(&centres);
+    let (some, all) = (some.current(), all.current());
+    assert_eq!(some[knee].status, Status::Seed);
+    assert!(
+        (some[knee].pos.x - centres[knee].x).abs() < 1e-3,
+        "{:?}",
+        some[knee]
+    );
+    assert_eq!(some[elbow], before[elbow], "the elbow the key left out");
+    assert_eq!(all[elbow].status, Status::Seed);
+}

@@ -54,7 +54,8 @@ impl Pass {
             .zip(&key.joints)
             .map(|(e, k)| k.unwrap_or(e.pos))
             .collect();
-        self.tracker.restart_moving(&centres);
+        let keyed: Vec<bool> = key.joints.iter().map(Option::is_some).collect();
+        self.tracker.restart_moving_keyed(&centres, &keyed);
     }
 
     /// Starts a pass of `tracker`, just built or restarted on frame `frame`, where the joints'

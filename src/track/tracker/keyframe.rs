@@ -23,37 +23,62 @@ impl Tracker {
         self.restart(centres, true)
     }
 
+    /// [`Tracker::restart_moving`] for a key that gives the joints where `keyed` holds only:
+    /// the others keep what the tracker knows of them (seen or hidden, their score), their
+    /// motion filters moved only where their parent moved (their bone changed).
+    pub fn restart_moving_keyed(&mut self, centres: &[Point], keyed: &[bool]) {
+        let centres: &[Point] = &centres
+            .iter()
+            .map(|&c| self.work.to_work(c))
+            .collect::<Vec<_>>();
+        for o in 0..self.order.len() {
+            let j = self.order[o];
+            let par = self.parents[j];
+            if keyed[j] {
+                self.restart_joint(j, centres, true);
+            } else if par.is_some_and(|p| keyed[p]) {
+                let m = &mut self.joints[j].motion;
+                m.moved_to(centres[j], par.map(|p| centres[p]));
+            }
+        }
+    }
+
     fn restart(&mut self, centres: &[Point], moving: bool) {
         let centres: &[Point] = &centres
             .iter()
             .map(|&c| self.work.to_work(c))
             .collect::<Vec<_>>();
-        for &j in &self.order {
-            let par = self.parents[j];
-            let motion = if moving {
-                let mut m = self.joints[j].motion.clone();
-                m.moved_to(centres[j], par.map(|p| centres[p]));
-                m
-            } else {
-                self.motion_at_rest(j, centres)
-            };
-            let state = &mut self.joints[j];
-            state.motion = motion;
-            state.hidden_run = 0;
-            let dir = match par {
-                Some(p) => Some(direction(centres[p], centres[j])),
-                None if self.params.rotate_roots => self.children[j]
-                    .first()
-                    .map(|&c| direction(centres[j], centres[c])),
-                None => None,
-            };
-            state.last = JointEstimate {
-                pos: centres[j],
-                angle_rad: dir.map_or(0.0, |d| unwrap_angle(0.0, d - state.seed_dir)),
-                score: 1.0,
-                status: Status::Seed,
-            };
+        for o in 0..self.order.len() {
+            self.restart_joint(self.order[o], centres, moving);
         }
+    }
+
+    /// Restarts joint `j` at `centres[j]` (working px), as [`Tracker::restart`] does.
+    fn restart_joint(&mut self, j: usize, centres: &[Point], moving: bool) {
+        let par = self.parents[j];
+        let motion = if moving {
+            let mut m = self.joints[j].motion.clone();
+            m.moved_to(centres[j], par.map(|p| centres[p]));
+            m
+        } else {
+            self.motion_at_rest(j, centres)
+        };
+        let state = &mut self.joints[j];
+        state.motion = motion;
+        state.hidden_run = 0;
+        let dir = match par {
+            Some(p) => Some(direction(centres[p], centres[j])),
+            None if self.params.rotate_roots => self.children[j]
+                .first()
+                .map(|&c| direction(centres[j], centres[c])),
+            None => None,
+        };
+        state.last = JointEstimate {
+            pos: centres[j],
+            angle_rad: dir.map_or(0.0, |d| unwrap_angle(0.0, d - state.seed_dir)),
+            score: 1.0,
+            status: Status::Seed,
+        };
     }
 
     /// Joint `j`'s motion model at rest with the joints at `x` (px): a root's position, or the
