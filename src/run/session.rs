@@ -44,6 +44,7 @@ mod ahead;
 mod flow;
 mod pass;
 mod segment;
+mod spans;
 
 use pass::{Appearance, Frames, Pass};
 use segment::keyed_row;

@@ -4,7 +4,7 @@
 
 use super::pass::{Appearance, Frames, Pass};
 use super::Session;
-use super::{ahead, flow};
+use super::{ahead, flow, spans};
 use crate::error::Result;
 use crate::geom::Point;
 use crate::run::keyed;
@@ -358,96 +358,19 @@ impl Session {
                     _ => flow::pyramids_of(flow::take_spare(), &images[..=top]),
                 },
             };
-            let prm = keyed::KeyedParams::default();
-            let mut doubt: Vec<Vec<f32>> = vec![vec![0.0; self.names.len()]; top + 1];
-            // Each joint from its key to its next one: a key that leaves a joint out is no end
-            // of that joint's span.
-            let keyed_at: Vec<Vec<bool>> = anchors
-                .iter()
-                .map(|(_, k)| k.iter().map(Option::is_some).collect())
-                .collect();
-            for (pa, pb, joints) in keyed::joint_spans(&keyed_at) {
-                let ((ia, ka), (ib, kb)) = (&anchors[pa], &anchors[pb]);
-                let kb: Vec<Option<Point>> = kb
-                    .iter()
-                    .zip(&joints)
-                    .map(|(k, &on)| k.filter(|_| on))
-                    .collect();
-                let kb = &kb;
-                let start_pos: Vec<Point> = ka
-                    .iter()
-                    .zip(&track_pos[*ia])
-                    .map(|(k, p)| k.unwrap_or(*p))
-                    .collect();
-                // Lucas–Kanade's ways, unless followed already to judge the span (`lean`: one
-                // span over the whole segment, the same frames and keys).
-                let ways = match early_ways.take() {
-                    Some(w) if anchors.len() == 2 => w,
-                    _ => keyed::ways(&pyramids[*ia..=*ib], &start_pos, Some(kb), &boxes, &prm),
-                };
-                let solved = keyed::solve_with(
-                    &ways,
-                    &start_pos,
-                    Some(kb),
-                    &track_pos[*ia..=*ib],
-                    &track_ok[*ia..=*ib],
-                    &prm,
-                );
-                // Per joint, how far the tracker's ways and Lucas–Kanade's missed the keys (px):
-                // up to a corrected segment file both ways of each; between keys of keys.toml,
-                // where the tracker ran forward only, forward alone. `None`: no key on `b`.
-                let two_ways = *ib == top && end.is_some();
-                let misses: Vec<Option<(f32, f32)>> = match (&back_here, &carried_end) {
-                    (Some(bh), Some(ce)) if two_ways => (0..self.names.len())
-                        .map(|j| {
-                            let (xa, xb) = (start_pos[j], kb[j]?);
-                            let back_a = bh.get(*ia).map_or(xa, |r| r[j]);
-                            let miss_t = (ce[j] - xb).norm() + (back_a - xa).norm();
-                            Some((miss_t, solved.lk_miss[j]))
-                        })
-                        .collect(),
-                    _ => (0..self.names.len())
-                        .map(|j| {
-                            let miss_t = (track_pos[*ib][j] - kb[j]?).norm();
-                            Some((miss_t, solved.lk_fwd_miss[j]))
-                        })
-                        .collect(),
-                };
-                // The share of the span's joint-frames where `keep` holds.
-                let span = &blended[*ia..=*ib];
-                let all = span.iter().map(|r| r.len()).sum::<usize>() as f32;
-                let share = |keep: fn(&JointEstimate, f32) -> bool| {
-                    let n = span
-                        .iter()
-                        .flat_map(|r| r.iter())
-                        .filter(|e| keep(e, ok_share));
-                    n.count() as f32 / all
-                };
-                let lead = led_early
-                    .unwrap_or_else(|| keyed::lead(&misses, share(JointEstimate::fits_alone)));
-                let body_share = share(|e, _| e.status == Status::Ok);
-                let keep_blend = keyed::keep_tracker(&misses, keyed::settle(lead, body_share));
-                let blend_kept = *ib == top && end.is_some() && back_here.is_some();
-                let len = (ib - ia) as f32;
-                for (t, row) in solved.rows.iter().enumerate().skip(1) {
-                    for (j, s) in row.iter().enumerate().filter(|(j, _)| joints[*j]) {
-                        match (keep_blend[j], blend_kept, kb[j]) {
-                            (true, true, _) => doubt[ia + t][j] = f32::NAN,
-                            (true, false, Some(xb)) => {
-                                let lam = t as f32 / len;
-                                let miss = xb - track_pos[*ib][j];
-                                track_pos[ia + t][j] += miss * lam;
-                                doubt[ia + t][j] = miss.norm() * 2.0 * lam.min(1.0 - lam);
-                            }
-                            (true, false, None) => doubt[ia + t][j] = f32::NAN,
-                            (false, ..) => {
-                                track_pos[ia + t][j] = s.pos;
-                                doubt[ia + t][j] = s.sigma_px;
-                            }
-                        }
-                    }
-                }
-            }
+            let between = spans::Between {
+                anchors: &anchors,
+                pyramids: &pyramids,
+                blended: &blended,
+                track_ok: &track_ok,
+                boxes: &boxes,
+                led_early,
+                corrected_end: end.is_some(),
+                back_here: back_here.as_deref(),
+                carried_end: carried_end.as_deref(),
+                ok_share,
+            };
+            let doubt = between.solve(&mut track_pos, early_ways.take());
             // Kept for the next segment's frames; at the clip's end, let go.
             if boundary.is_some() {
                 flow::put_spare(pyramids);
