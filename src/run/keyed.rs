@@ -168,6 +168,9 @@ pub fn keep_tracker(misses: &[Option<(f32, f32)>], lead: Lead) -> Vec<bool> {
 /// Variance (px²) given to a step no Lucas–Kanade pass could follow.
 const FAILED_STEP_VAR: f64 = 100.0;
 
+/// Variance of every step of a joint [`ways_of`] leaves unfollowed (held where it starts).
+const HELD_VAR: f64 = 1e12;
+
 /// Variance (px²) of a step of the appearance tracker where it did not call the joint `ok`.
 const GUESSED_STEP_VAR: f64 = 64.0;
 
@@ -264,11 +267,28 @@ pub fn ways(
     boxes: &[u32],
     prm: &KeyedParams,
 ) -> Ways {
+    ways_of(frames, start, end, boxes, prm, &vec![true; start.len()])
+}
+
+/// [`ways`] for the joints where `only` holds; the others are held at `start` (every step
+/// unfollowed), for a caller that keeps none of their results.
+pub fn ways_of(
+    frames: &[GreyPyramid],
+    start: &[Point],
+    end: Option<&[Option<Point>]>,
+    boxes: &[u32],
+    prm: &KeyedParams,
+    only: &[bool],
+) -> Ways {
     let fwd: Vec<&GreyPyramid> = frames.iter().collect();
     let bwd: Vec<&GreyPyramid> = frames.iter().rev().collect();
     let per_joint = (0..start.len())
         .into_par_iter()
         .map(|j| {
+            if !only[j] {
+                let held = (vec![start[j]; frames.len()], vec![HELD_VAR; frames.len()]);
+                return (held, None);
+            }
             let flow = FlowParams {
                 half: window_half(boxes[j], prm.flow.half),
                 ..prm.flow

@@ -24,22 +24,44 @@ pub(super) struct Ahead {
     pub(super) rows: Vec<Vec<JointEstimate>>,
 }
 
-/// The key a segment's last span runs on to: the first key after the next segment's first frame
-/// `next`, when neither a correction (`corrected_next`) nor a key sits on `next`, and the frames
-/// up to it, of `frame_bytes` each, fit in [`AHEAD_BYTES`].
-pub(super) fn key_past_end(
+/// The keys a segment's last spans run on to, in frame order: those after the next segment's
+/// first frame `next` up to the first that keys each joint (a key may give some joints only),
+/// when neither a correction (`corrected_next`) nor a key sits on `next`, as far as the frames
+/// up to them, of `frame_bytes` each, fit in [`AHEAD_BYTES`]. Empty when there is none.
+pub(super) fn keys_past_end(
     keys: &[Key],
     next: u64,
     corrected_next: bool,
     frame_bytes: usize,
-) -> Option<&Key> {
+) -> Vec<&Key> {
     if corrected_next || keys.iter().any(|x| x.frame == next) {
-        return None;
+        return Vec::new();
     }
     let most = (AHEAD_BYTES / frame_bytes.max(1)) as u64;
-    keys.iter()
-        .find(|x| x.frame > next)
-        .filter(|x| x.frame - next <= most)
+    let mut wanted: Option<Vec<bool>> = None;
+    let mut out = Vec::new();
+    for key in keys.iter().filter(|x| x.frame > next) {
+        if key.frame - next > most {
+            break;
+        }
+        let w = wanted.get_or_insert_with(|| vec![true; key.joints.len()]);
+        if !key
+            .joints
+            .iter()
+            .zip(w.iter())
+            .any(|(k, &w)| w && k.is_some())
+        {
+            continue;
+        }
+        for (w, k) in w.iter_mut().zip(&key.joints) {
+            *w &= k.is_none();
+        }
+        out.push(key);
+        if !w.iter().any(|&w| w) {
+            break;
+        }
+    }
+    out
 }
 
 impl Session {
@@ -98,24 +120,43 @@ mod tests {
 
     #[test]
     fn a_span_runs_on_to_the_next_key_unless_the_boundary_is_keyed_or_it_is_too_far() {
+        let p = Some(crate::geom::Point::new(1.0, 1.0));
         let keys: Vec<Key> = [40, 150, 400]
             .map(|frame| Key {
                 frame,
-                joints: Vec::new(),
+                joints: vec![p],
             })
             .to_vec();
-        let at = |next: u64, corrected: bool, bytes: usize| {
-            key_past_end(&keys, next, corrected, bytes).map(|k| k.frame)
+        let at = |next: u64, corrected: bool, bytes: usize| -> Vec<u64> {
+            let k = keys_past_end(&keys, next, corrected, bytes);
+            k.iter().map(|k| k.frame).collect()
         };
         let mb = 1 << 20;
-        assert_eq!(at(30, false, mb), Some(40));
-        assert_eq!(at(100, false, mb), Some(150));
+        assert_eq!(at(30, false, mb), [40]);
+        assert_eq!(at(100, false, mb), [150]);
         // A key on the boundary, or a corrected file there, is the span's end already.
-        assert_eq!(at(150, false, mb), None);
-        assert_eq!(at(100, true, mb), None);
+        assert!(at(150, false, mb).is_empty());
+        assert!(at(100, true, mb).is_empty());
         // 250 frames ahead fit in 512 MiB at 1 MiB a frame, not at 4 MiB.
-        assert_eq!(at(160, false, mb), Some(400));
-        assert_eq!(at(160, false, 4 * mb), None);
-        assert_eq!(at(400, false, mb), None);
+        assert_eq!(at(160, false, mb), [400]);
+        assert!(at(160, false, 4 * mb).is_empty());
+        assert!(at(400, false, mb).is_empty());
+        // Keys of some joints: on to the first key of each joint, a key of none new skipped.
+        let some: Vec<Key> = [
+            (50, [p, None]),
+            (60, [p, None]),
+            (70, [None, p]),
+            (80, [p, p]),
+        ]
+        .map(|(frame, j)| Key {
+            frame,
+            joints: j.to_vec(),
+        })
+        .to_vec();
+        let frames: Vec<u64> = keys_past_end(&some, 45, false, mb)
+            .iter()
+            .map(|k| k.frame)
+            .collect();
+        assert_eq!(frames, [50, 70]);
     }
 }

@@ -77,10 +77,10 @@ impl Session {
             .filter(|x| x.frame > first_frame && x.frame < next)
             .collect();
         let key_next = keys.iter().find(|x| x.frame == next);
-        // The key after the segment's end that its last span is solved through, read ahead
-        // ([`ahead`]).
-        let past_end = ahead::key_past_end(keys, next, end.is_some(), first.bytes());
-        let hold = end.is_some() || !inner.is_empty() || key_next.is_some() || past_end.is_some();
+        // The keys after the segment's end that its last spans are solved through (each
+        // joint's next), read ahead ([`ahead`]).
+        let past_end = ahead::keys_past_end(keys, next, end.is_some(), first.bytes());
+        let hold = end.is_some() || !inner.is_empty() || key_next.is_some() || !past_end.is_empty();
         // Between two corrections with no key inside, the passes that only feed the blend wait
         // until the span is known not to be led by flow ([`keyed::lead`]): where it is,
         // the carried pass and the one backward from the correction decide, at two passes'
@@ -147,7 +147,7 @@ impl Session {
         if keyframe {
             out[0].1 = start.row.clone();
         } else if key_here.is_none()
-            && (!inner.is_empty() || key_next.is_some() || past_end.is_some())
+            && (!inner.is_empty() || key_next.is_some() || !past_end.is_empty())
         {
             // The previous segment's last span ran on to the next key: the row solved on this
             // frame, which the tool wrote into this segment's file ([`ahead`]), is where this
@@ -296,10 +296,10 @@ impl Session {
         // Between two keys, the path through both ([`crate::run::keyed`]): from the segment's
         // first frame through every key inside it to the next segment's file when that is a
         // correction (or the clip's last frame is), to a key on the next segment's first frame,
-        // or on to the first key inside the next segment.
+        // or on to each joint's next key past the segment's end.
         let last = boundary.as_ref().or(tail.as_ref());
         let n = held.len();
-        let ahead = match (past_end, &boundary) {
+        let ahead = match (past_end.last(), &boundary) {
             (Some(key), Some(_)) => self.read_ahead(k + 1, next, key.frame, frames, &mut built)?,
             _ => None,
         };
@@ -319,8 +319,10 @@ impl Session {
             }
             _ => {}
         }
-        if let (Some(a), Some(key)) = (&ahead, past_end) {
-            anchors.push((n + 1 + a.frames.len(), key.joints.clone()));
+        if ahead.is_some() {
+            for key in &past_end {
+                anchors.push((n + 1 + (key.frame - next) as usize, key.joints.clone()));
+            }
         }
         if anchors.len() > 1 {
             let ahead_frames = ahead.iter().flat_map(|a| a.frames.iter().map(|(_, f)| f));

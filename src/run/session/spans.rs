@@ -71,12 +71,13 @@ impl Between<'_> {
             // span over the whole segment, the same frames and keys).
             let ways = match early_ways.take() {
                 Some(w) if self.anchors.len() == 2 => w,
-                _ => keyed::ways(
+                _ => keyed::ways_of(
                     &self.pyramids[*ia..=*ib],
                     &start_pos,
                     Some(kb),
                     self.boxes,
                     &prm,
+                    &joints,
                 ),
             };
             let solved = keyed::solve_with(
