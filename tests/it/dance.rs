@@ -248,9 +248,9 @@ fn keys_off_the_segments_starts_are_solved_across_the_segments_ends() {
     println!(
         "keys every 25 from frame 12: PCK@20 {segmented:.4} in segments of 150, {whole:.4} in one"
     );
-    // Measured: 84.1 % in both (seeded joints); before spans ran across the segments' ends,
+    // Measured: 84.6 % in both (seeded joints); before spans ran across the segments' ends,
     // 80.4 % in segments of 150, the frames around each end 10–24 points down.
-    assert!(segmented >= 0.835, "{segmented}");
+    assert!(segmented >= 0.84, "{segmented}");
     assert!(
         (segmented - whole).abs() <= 0.01,
         "{segmented} against {whole}"
