@@ -18,8 +18,10 @@
 //!   other) would otherwise cost whole segments after it.
 //!
 //! Up to the next key (a corrected segment file, or a key of `keys.toml`), the segment's frames
-//! are held, and every joint's path between the keys is solved through both ends
-//! ([`segment`], [`crate::run::keyed`]). After the last key, the carried tracker's pass and
+//! are held, and every joint's path between its own keys is solved through both ends
+//! ([`segment`], [`spans`], [`crate::run::keyed`]), past the segment's end too: the frames up to
+//! each joint's next key are read ahead and given back ([`ahead`]). After the last key, the
+//! carried tracker's pass and
 //! one built on the correction are blended ([`super::blend`]). An appearance built on a
 //! correction keeps the seed frame's for the bones hidden there
 //! ([`Tracker::adopt_hidden_from`]): a far arm behind the body would otherwise be sampled off
