@@ -514,3 +514,58 @@ fn fixture_file_errors_name_the_file() {
         "{m}"
     );
 }
+
+/// `scripts/jitter-seeds SRC OUT K`, its exit status and stderr.
+fn jitter(src: &Path, out: &Path, k: &str) -> std::process::Output {
+    std::process::Command::new("bash")
+        .arg(crate::common::root().join("scripts/jitter-seeds"))
+        .args([src, out])
+        .arg(k)
+        .output()
+        .unwrap()
+}
+
+/// The seed files `scripts/accuracy --real` tracks the real clips from, beside their shipped
+/// ones: every joint moved by at most 3 px, the skeleton and rectangles as they were, the same
+/// bytes for the same K, another draw for another K; bad arguments exit 2 saying which.
+#[test]
+fn jittered_seed_files_move_every_joint_a_little_and_repeat() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = crate::common::walk("joints.toml");
+    let (base, _) = read_seeds(&src).unwrap();
+    let out = |name: &str, k: &str| {
+        let path = dir.path().join(name);
+        let o = jitter(&src, &path, k);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        path
+    };
+    let (a, again, other) = (out("a.toml", "3"), out("b.toml", "3"), out("c.toml", "4"));
+    let bytes = |p: &Path| std::fs::read(p).unwrap();
+    assert_eq!(bytes(&a), bytes(&again));
+    assert_ne!(bytes(&a), bytes(&other));
+    for path in [&a, &other] {
+        let (moved, _) = read_seeds(path).unwrap();
+        assert_eq!(moved.skeleton.parents, base.skeleton.parents);
+        let mut largest = 0.0f32;
+        for (m, b) in moved.joints.iter().zip(&base.joints) {
+            assert_eq!((&m.name, m.bbox.w, m.bbox.h), (&b.name, b.bbox.w, b.bbox.h));
+            for d in [m.bbox.cx - b.bbox.cx, m.bbox.cy - b.bbox.cy] {
+                assert!(d.abs() <= 3.006, "{} moved {d} px", m.name);
+                largest = largest.max(d.abs());
+            }
+        }
+        assert!(largest > 1.0, "no joint moved more than {largest} px");
+    }
+    for (k, says) in [("0", "K must be"), ("x", "K must be")] {
+        let o = jitter(&src, &dir.path().join("d.toml"), k);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&o.stderr).contains(says));
+    }
+    let o = jitter(
+        &dir.path().join("none.toml"),
+        &dir.path().join("d.toml"),
+        "1",
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no such seed file"));
+}
