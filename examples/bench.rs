@@ -22,7 +22,9 @@
 //! state as it goes), writing (what the run writes at its end: `tracks.csv` joined from the
 //! segments, `report.md`, `run.toml`), end to end (the `mocap2d` binary as a child process, wall
 //! clock, start-up included) and FFmpeg (`ffmpeg -i clip -pix_fmt rgb24 -f rawvideo /dev/null`,
-//! wall clock). Peak RSS of the end to end is GNU `/usr/bin/time -f %M` when present.
+//! wall clock). FFmpeg and the end to end run in turn, and the ratio is the median over those
+//! pairs, so that a change of the machine's load between the two does not decide it. Peak RSS
+//! of the end to end is GNU `/usr/bin/time -f %M` when present.
 
 use anyhow::{bail, Context, Result};
 use mocap2d::app::{self, TrackOptions};
@@ -76,6 +78,8 @@ struct RowBench {
     end_to_end: f64,
     end_rss: String,
     ffmpeg: f64,
+    /// Median over the runs of end to end ÷ the FFmpeg run just before it.
+    ratio: f64,
     target: Option<Target>,
 }
 
@@ -146,7 +150,7 @@ fn main() -> Result<()> {
     );
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|");
     for r in &rows {
-        let ratio = r.end_to_end / r.ffmpeg;
+        let ratio = r.ratio;
         let target = match r.target {
             None => "–".to_string(),
             Some(Target::Fps(f)) => format!(
@@ -196,7 +200,9 @@ fn main() -> Result<()> {
          `run.toml`\n\
          - **end to end**: the `mocap2d` binary as a child process, wall clock incl. start-up \
          (`track`; for a keyed row `resume RUN --segment 0` after the keys are written)\n\
-         - **FFmpeg → RGB**: `ffmpeg -i clip -pix_fmt rgb24 -f rawvideo /dev/null`, wall clock\n\
+         - **FFmpeg → RGB**: `ffmpeg -i clip -pix_fmt rgb24 -f rawvideo /dev/null`, wall clock, \
+         each run right before one of the end to end\n\
+         - **end to end ÷ FFmpeg**: the median over those pairs of runs of their ratio\n\
          - **peak RSS**: of the end to end (GNU time)"
     );
     if !Path::new(GNU_TIME).is_file() {
@@ -241,7 +247,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
     })?;
     let info = decode::open(&clip, None)?.info().clone();
 
-    let ffmpeg = [
+    let ffmpeg_cmd = [
         "ffmpeg",
         "-v",
         "error",
@@ -254,7 +260,6 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
         "rawvideo",
         "/dev/null",
     ];
-    let (ffmpeg, _) = child_stage("ffmpeg to RGB", reps, frames, &ffmpeg)?;
 
     let mut bg = None;
     let plate = stage("plate", reps, || {
@@ -291,7 +296,14 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
     }
 
     // End to end: the binary, as a user runs it.
-    let (end_to_end, end_rss) = if spec.keys.is_some() {
+    // Each run of it right after a run of FFmpeg's decode of the same clip, so that the ratio
+    // compares runs made under the same load.
+    let Paired {
+        ffmpeg,
+        end_to_end,
+        ratio,
+        rss: end_rss,
+    } = if spec.keys.is_some() {
         let cmd = [
             &utf8(bin)?,
             "resume",
@@ -302,7 +314,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
             &clip_arg,
             "--quiet",
         ];
-        child_stage("end to end (resume)", reps, frames, &cmd)?
+        paired_stage("end to end (resume)", reps, frames, &ffmpeg_cmd, &cmd)?
     } else {
         let out = utf8(&tmp.path().join("bin-run"))?;
         let cmd = [
@@ -315,7 +327,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
             &out,
             "--quiet",
         ];
-        child_stage("end to end (track)", reps, frames, &cmd)?
+        paired_stage("end to end (track)", reps, frames, &ffmpeg_cmd, &cmd)?
     };
 
     // Tracking: the segmented loop over frames already in memory, into the run folder (its
@@ -380,6 +392,7 @@ fn bench_row(spec: &Spec, reps: usize, bin: &Path) -> Result<RowBench> {
         end_to_end,
         end_rss,
         ffmpeg,
+        ratio,
         target: spec.target,
     })
 }
@@ -421,45 +434,79 @@ fn stage(name: &str, reps: usize, mut f: impl FnMut() -> Result<(u64, f64)>) -> 
     Ok(median(fps))
 }
 
-/// Runs `cmd` `reps` times (under GNU time if present); median frames/s over `frames` and the
-/// largest peak RSS.
-fn child_stage(name: &str, reps: usize, frames: u64, cmd: &[&str]) -> Result<(f64, String)> {
-    let gnu_time = Path::new(GNU_TIME).is_file();
+/// What [`paired_stage`] measured: medians of frames/s, the median ratio of the pairs and the
+/// largest peak RSS of the end to end.
+struct Paired {
+    ffmpeg: f64,
+    end_to_end: f64,
+    ratio: f64,
+    rss: String,
+}
+
+/// Runs `ffmpeg` then `cmd`, `reps` times in turn (`cmd` under GNU time if present), each over
+/// `frames` frames.
+fn paired_stage(
+    name: &str,
+    reps: usize,
+    frames: u64,
+    ffmpeg: &[&str],
+    cmd: &[&str],
+) -> Result<Paired> {
     let rss_file = tempfile::NamedTempFile::new()?;
-    let mut fps = Vec::new();
-    let mut rss = None;
+    let (mut base, mut fps, mut ratios, mut rss) = (Vec::new(), Vec::new(), Vec::new(), None);
     for _ in 0..reps {
-        let mut c = if gnu_time {
+        let (a, _) = run_child("ffmpeg to RGB", frames, ffmpeg, None)?;
+        let (b, kib) = run_child(name, frames, cmd, Some(rss_file.path()))?;
+        rss = rss.max(kib);
+        ratios.push(b / a);
+        base.push(a);
+        fps.push(b);
+    }
+    Ok(Paired {
+        ffmpeg: median(base),
+        end_to_end: median(fps),
+        ratio: median(ratios),
+        rss: rss.map_or("n/a".into(), mib),
+    })
+}
+
+/// Runs `cmd` once (under GNU time, writing to `rss_file`, when given and present): frames/s over
+/// `frames` and the peak RSS in KiB.
+fn run_child(
+    name: &str,
+    frames: u64,
+    cmd: &[&str],
+    rss_file: Option<&Path>,
+) -> Result<(f64, Option<u64>)> {
+    let timed = rss_file.filter(|_| Path::new(GNU_TIME).is_file());
+    let mut c = match timed {
+        Some(f) => {
             let mut c = Command::new(GNU_TIME);
-            c.arg("-f")
-                .arg("%M")
-                .arg("-o")
-                .arg(rss_file.path())
-                .args(cmd);
+            c.arg("-f").arg("%M").arg("-o").arg(f).args(cmd);
             c
-        } else {
+        }
+        None => {
             let mut c = Command::new(cmd[0]);
             c.args(&cmd[1..]);
             c
-        };
-        let t = Instant::now();
-        let out = c.output().with_context(|| format!("running {}", cmd[0]))?;
-        let secs = t.elapsed().as_secs_f64();
-        if !out.status.success() {
-            bail!(
-                "{name}: {} failed: {}",
-                cmd.join(" "),
-                String::from_utf8_lossy(&out.stderr)
-            );
         }
-        if gnu_time {
-            let kib: u64 = std::fs::read_to_string(rss_file.path())?.trim().parse()?;
-            rss = rss.max(Some(kib));
-        }
-        fps.push(frames as f64 / secs);
-        eprintln!("{name}: {frames} frames in {secs:.3} s");
+    };
+    let t = Instant::now();
+    let out = c.output().with_context(|| format!("running {}", cmd[0]))?;
+    let secs = t.elapsed().as_secs_f64();
+    if !out.status.success() {
+        bail!(
+            "{name}: {} failed: {}",
+            cmd.join(" "),
+            String::from_utf8_lossy(&out.stderr)
+        );
     }
-    Ok((median(fps), rss.map_or("n/a".into(), mib)))
+    let kib = match timed {
+        Some(f) => Some(std::fs::read_to_string(f)?.trim().parse()?),
+        None => None,
+    };
+    eprintln!("{name}: {frames} frames in {secs:.3} s");
+    Ok((frames as f64 / secs, kib))
 }
 
 fn mib(kib: u64) -> String {
