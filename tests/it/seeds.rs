@@ -569,3 +569,64 @@ fn jittered_seed_files_move_every_joint_a_little_and_repeat() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no such seed file"));
 }
+
+/// `scripts/seeds-from-labels SRC LABELS FRAME OUT`, its exit status and stderr.
+fn from_labels(src: &Path, labels: &Path, frame: &str, out: &Path) -> std::process::Output {
+    std::process::Command::new("bash")
+        .arg(crate::common::root().join("scripts/seeds-from-labels"))
+        .args([src, labels])
+        .arg(frame)
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// A seed file written from the labels of another frame: that frame, each joint where its label
+/// is, the skeleton and rectangles as they were; a joint without a label there, or a frame that
+/// is not a number, exits 2 naming it and writes nothing.
+#[test]
+fn seeds_from_labels_move_every_joint_to_its_label_on_that_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let (src, gt) = (
+        crate::common::walk("joints.toml"),
+        crate::common::walk("gt.csv"),
+    );
+    let (base, _) = read_seeds(&src).unwrap();
+    let out = dir.path().join("f17.toml");
+    let o = from_labels(&src, &gt, "17", &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (moved, _) = read_seeds(&out).unwrap();
+    assert_eq!(moved.frame, 17);
+    assert_eq!(moved.skeleton.parents, base.skeleton.parents);
+    let labels = std::fs::read_to_string(&gt).unwrap();
+    let label = |joint: &str| -> (f32, f32) {
+        let row = labels
+            .lines()
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .find(|c| c[0] == "17" && c[1] == joint)
+            .unwrap_or_else(|| panic!("no label of {joint} on frame 17"));
+        (row[2].parse().unwrap(), row[3].parse().unwrap())
+    };
+    let mut moved_any = false;
+    for (m, b) in moved.joints.iter().zip(&base.joints) {
+        assert_eq!((&m.name, m.bbox.w, m.bbox.h), (&b.name, b.bbox.w, b.bbox.h));
+        let (x, y) = label(&m.name);
+        assert!(
+            (m.bbox.cx - x).abs() < 1e-3 && (m.bbox.cy - y).abs() < 1e-3,
+            "{}",
+            m.name
+        );
+        moved_any |= (m.bbox.cx - b.bbox.cx).abs() > 1.0;
+    }
+    assert!(
+        moved_any,
+        "the walk's joints on frame 17 are where they were on frame 0"
+    );
+    for (frame, says) in [("9999", "no label for joint"), ("x", "FRAME must be")] {
+        let bad = dir.path().join(format!("bad-{frame}.toml"));
+        let o = from_labels(&src, &gt, frame, &bad);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&o.stderr).contains(says));
+        assert!(!bad.exists() && !dir.path().join(format!("bad-{frame}.toml.tmp")).exists());
+    }
+}
