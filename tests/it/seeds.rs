@@ -622,6 +622,24 @@ fn seeds_from_labels_move_every_joint_to_its_label_on_that_frame() {
         moved_any,
         "the walk's joints on frame 17 are where they were on frame 0"
     );
+    // TOML needs no spaces around `=`: such a file gets the same positions.
+    let tight = dir.path().join("tight.toml");
+    let text = std::fs::read_to_string(&src).unwrap();
+    std::fs::write(&tight, text.replace(" = ", "=")).unwrap();
+    let tight_out = dir.path().join("tight17.toml");
+    assert!(from_labels(&tight, &gt, "17", &tight_out).status.success());
+    let (tight_moved, _) = read_seeds(&tight_out).unwrap();
+    for (a, b) in tight_moved.joints.iter().zip(&moved.joints) {
+        assert_eq!((a.bbox.cx, a.bbox.cy), (b.bbox.cx, b.bbox.cy), "{}", a.name);
+    }
+    // A joint without its `x =` line is refused, not written with its old position.
+    let no_x = dir.path().join("no-x.toml");
+    let kept: Vec<&str> = text.lines().filter(|l| !l.starts_with("x =")).collect();
+    std::fs::write(&no_x, kept.join("\n")).unwrap();
+    let o = from_labels(&no_x, &gt, "17", &dir.path().join("bad-no-x.toml"));
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("needs one x = and one y = line"));
+    assert!(!dir.path().join("bad-no-x.toml").exists());
     for (frame, says) in [("9999", "no label for joint"), ("x", "FRAME must be")] {
         let bad = dir.path().join(format!("bad-{frame}.toml"));
         let o = from_labels(&src, &gt, frame, &bad);
