@@ -108,7 +108,7 @@ impl Tracker {
         // The bone as it was laid and mirrored: two independent searches, side by side, then
         // judged in this order.
         let search = |m: bool| {
-            let (best, _) = grid_min_bounded(&w, |q, limit| {
+            let (best, _) = grid_min_bounded(&w, p.search_max_steps, |q, limit| {
                 s.coarse_cost_below(v, x[par], at(q), m, limit)
             });
             let c = at(best);
@@ -184,7 +184,7 @@ impl Tracker {
                     let b = x[grand] + Vector::new(q[0].cos(), q[0].sin()) * l1;
                     (b, b + Vector::new(q[1].cos(), q[1].sin()) * l2)
                 };
-                let (best, _) = grid_min_bounded_serial(&w, |q, limit| {
+                let (best, _) = grid_min_bounded_serial(&w, p.search_max_steps, |q, limit| {
                     let (b, c) = at(q);
                     s.coarse_cost_below(v, b, c, m, limit)
                 });

@@ -91,7 +91,7 @@ impl Tracker {
         // `colour(d)` plus the geometric term, given up (infinite) once it cannot be below
         // `limit`: the strips' costs summed so far plus a lower bound of the next one (see
         // [`Strip::coarse_cost_until`]), through the same operations.
-        let (best, _) = grid_min_bounded(&w, |q, limit| {
+        let (best, _) = grid_min_bounded(&w, p.search_max_steps, |q, limit| {
             let d = Vector::new(q[0], q[1]);
             let geo = p.geo_weight * d.norm_squared() / (radius * radius);
             let mut sum = 0.0;
@@ -160,7 +160,7 @@ impl Tracker {
         }
         // `colour(at(q))` plus the geometric term, given up (infinite) once it cannot be below
         // `limit` (as in `search_root`).
-        let (best, _) = grid_min_bounded(&w, |q, limit| {
+        let (best, _) = grid_min_bounded(&w, p.search_max_steps, |q, limit| {
             let geo = ((q[0] - a0) / half_a).powi(2) + ((q[1] - l0) / half_l).powi(2);
             let extra = p.geo_weight * geo;
             let c = at(q);

@@ -15,6 +15,9 @@ pub struct TrackParams {
     pub search_sigmas: f32,
     /// Grid step (px, at a bone's end) of the coarse search.
     pub search_step_px: f32,
+    /// Most grid steps each side of a search window's centre: a wider window is walked at the
+    /// step doubled until it fits, and its 4 best points refined down to a quarter step.
+    pub search_max_steps: u32,
     /// A search moves a bone off its prediction only if that lowers its mean robust colour cost
     /// (0–1) by more than this.
     pub move_evidence: f32,
@@ -149,6 +152,7 @@ impl Default for TrackParams {
             search_max_px: 64.0,
             search_sigmas: 3.0,
             search_step_px: 2.0,
+            search_max_steps: super::search::MAX_STEPS,
             move_evidence: 0.03,
             search_skip_cost: 0.05,
             angle_min_deg: 20.0,

@@ -179,7 +179,7 @@ impl Tracker {
                     }
                     sum / count
                 };
-                let (q, _) = grid_min_bounded(&w, cost);
+                let (q, _) = grid_min_bounded(&w, self.params.search_max_steps, cost);
                 let at = Point::new(q[0], q[1]);
                 (rel.iter().map(|&d| at + d).collect(), flip)
             })

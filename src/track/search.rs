@@ -21,7 +21,7 @@ pub struct Window {
 /// Ties keep the first point found (row by row from the low corner), so results are
 /// deterministic.
 pub fn grid_min(w: &Window, f: impl Fn([f32; 2]) -> f32 + Sync) -> ([f32; 2], f32) {
-    grid_min_bounded(w, |q, _| f(q))
+    grid_min_bounded(w, MAX_STEPS, |q, _| f(q))
 }
 
 /// [`grid_min`] for a cost that may give up early: `f(q, limit)` must return the cost of `q`
@@ -29,21 +29,28 @@ pub fn grid_min(w: &Window, f: impl Fn([f32; 2]) -> f32 + Sync) -> ([f32; 2], f3
 /// cannot be the first minimum, so the result is [`grid_min`]'s to the bit). The coarse grid
 /// is dealt out to a few runs evaluated in parallel, nearest the centre first, each point
 /// judged against the best point found so far by any run (a tie going to the point first row by
-/// row), so the result does not depend on the threads.
-pub fn grid_min_bounded(w: &Window, f: impl Fn([f32; 2], f32) -> f32 + Sync) -> ([f32; 2], f32) {
-    grid_min_in_runs(w, RUNS, f)
+/// row), so the result does not depend on the threads. A window of more than `max_steps`
+/// steps a side (at least 1; [`MAX_STEPS`] in [`grid_min`]) is walked coarsely as there.
+pub fn grid_min_bounded(
+    w: &Window,
+    max_steps: u32,
+    f: impl Fn([f32; 2], f32) -> f32 + Sync,
+) -> ([f32; 2], f32) {
+    grid_min_in_runs(w, RUNS, max_steps, f)
 }
 
 /// [`grid_min_bounded`] on the calling thread alone, for a caller that runs several searches
 /// side by side: one run, and no thread is woken. The same result to the bit.
 pub fn grid_min_bounded_serial(
     w: &Window,
+    max_steps: u32,
     f: impl Fn([f32; 2], f32) -> f32 + Sync,
 ) -> ([f32; 2], f32) {
-    grid_min_in_runs(w, 1, f)
+    grid_min_in_runs(w, 1, max_steps, f)
 }
 
-/// [`grid_min_bounded`] with the coarse grid cut into `runs` runs (1: all on this thread).
+/// [`grid_min_bounded`] with the coarse grid cut into `runs` runs (1: all on this thread),
+/// walking at most `max_steps` steps a side.
 ///
 /// The points are evaluated nearest the centre first (where the best point usually is), each
 /// judged against the best point found so far by any run, so most give up early; the first
@@ -52,16 +59,18 @@ pub fn grid_min_bounded_serial(
 fn grid_min_in_runs(
     w: &Window,
     runs: usize,
+    max_steps: u32,
     f: impl Fn([f32; 2], f32) -> f32 + Sync,
 ) -> ([f32; 2], f32) {
-    // A window wider than `MAX_STEPS` steps a side is walked at a coarser step (doubled until
+    let max_steps = max_steps.max(1) as f32;
+    // A window wider than `max_steps` steps a side is walked at a coarser step (doubled until
     // it fits) and refined by as many more halving passes, so the work of one search is
     // bounded whatever the bone's length in pixels and the prediction's uncertainty.
     let mut w = *w;
     let mut extra = 0;
     for i in 0..2 {
         let mut k = 0;
-        while w.step[i] > 0.0 && (w.half[i] / w.step[i]).ceil() > MAX_STEPS as f32 {
+        while w.step[i] > 0.0 && (w.half[i] / w.step[i]).ceil() > max_steps {
             w.step[i] *= 2.0;
             k += 1;
         }
@@ -156,7 +165,7 @@ fn grid_min_in_runs(
 /// The indices of points `0..near.len()` by `near` (a squared distance from the centre),
 /// ties in order.
 fn nearest_first(near: &[i32]) -> Vec<u32> {
-    // A counting sort: the distances are small integers (at most 2·MAX_STEPS²).
+    // A counting sort: the distances are small integers (at most 2·max_steps²).
     let top = near.iter().copied().max().unwrap_or(0).max(0) as usize;
     let mut at = vec![0u32; top + 2];
     for &d in near {
@@ -314,11 +323,11 @@ fn lowest_k_in_order(
     all
 }
 
-/// Most grid steps on each side of a window's centre (see [`grid_min_bounded`]): a search
-/// costs at most `(2·16 + 1)²` points and its refinements, so a joint that is lost, or a long
-/// bone on a large subject, costs about what a found joint on a small one does (docs/method.md
-/// §2, "Search").
-pub const MAX_STEPS: i32 = 16;
+/// Most grid steps on each side of a window's centre (see [`grid_min_bounded`]; the default of
+/// the tracker's `search_max_steps`): a search costs at most `(2·16 + 1)²` points and its
+/// refinements, so a joint that is lost, or a long bone on a large subject, costs about what a
+/// found joint on a small one does (docs/method.md §2.3).
+pub const MAX_STEPS: u32 = 16;
 
 /// Best points of a coarsened grid that are each refined (see [`MAX_STEPS`]).
 pub const KEEP: usize = 4;
@@ -359,7 +368,7 @@ mod tests {
             step: [0.5, 0.5],
         };
         let given_up = std::sync::atomic::AtomicUsize::new(0);
-        let bounded = grid_min_bounded(&w, |q, limit| {
+        let bounded = grid_min_bounded(&w, MAX_STEPS, |q, limit| {
             let c = f(q);
             if c >= limit {
                 given_up.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -369,7 +378,7 @@ mod tests {
             }
         });
         assert_eq!(bounded, reference(&w, f));
-        let serial = grid_min_bounded_serial(&w, |q, limit| {
+        let serial = grid_min_bounded_serial(&w, MAX_STEPS, |q, limit| {
             let c = f(q);
             if c >= limit {
                 limit + 1.0
@@ -448,6 +457,41 @@ mod tests {
     }
 
     #[test]
+    fn a_walk_capped_at_fewer_steps_costs_fewer_points_and_still_finds_the_bowls_bottom() {
+        let f = |q: [f32; 2]| (q[0] - 31.3).powi(2) + (q[1] + 17.7).powi(2);
+        let w = Window {
+            centre: [0.0, 0.0],
+            half: [200.0, 200.0],
+            step: [1.0, 1.0],
+        };
+        let count = |cap: u32| {
+            let calls = std::sync::atomic::AtomicUsize::new(0);
+            let (q, c) = grid_min_bounded(&w, cap, |q, _| {
+                calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                f(q)
+            });
+            (q, c, calls.into_inner())
+        };
+        let (q8, _, calls8) = count(8);
+        assert!(
+            (q8[0] - 31.3).abs() <= 0.25 && (q8[1] + 17.7).abs() <= 0.25,
+            "{q8:?}"
+        );
+        // Step 1 doubled 5 times (32 × 7 ≥ 200): a 15 × 15 grid, 2 + 5 refinement passes.
+        assert!(calls8 <= 15 * 15 + KEEP * 7 * 8, "{calls8} evaluations");
+        let (q16, c16, calls16) = count(MAX_STEPS);
+        assert!(calls16 > calls8, "{calls16} against {calls8}");
+        assert_eq!((q16, c16), grid_min(&w, f));
+        // 0 is taken as 1: a 3 × 3 grid of the step doubled until it fits.
+        let (q0, _, calls0) = count(0);
+        assert!(
+            (q0[0] - 31.3).abs() <= 0.25 && (q0[1] + 17.7).abs() <= 0.25,
+            "{q0:?}"
+        );
+        assert!(calls0 < calls8, "{calls0} against {calls8}");
+    }
+
+    #[test]
     fn a_narrow_valley_beside_a_broad_one_is_kept_by_the_coarse_walk() {
         // Two valleys: a shallow one centred on a coarse grid point (cost 1) and a deeper one
         // (0.5) between coarse points, whose nearest coarse point costs 1.04: second on the
@@ -485,13 +529,16 @@ mod tests {
                 c
             }
         };
-        let parallel = grid_min_bounded(&w, bounded);
-        assert_eq!(parallel, grid_min_bounded_serial(&w, bounded));
+        let parallel = grid_min_bounded(&w, MAX_STEPS, bounded);
+        assert_eq!(parallel, grid_min_bounded_serial(&w, MAX_STEPS, bounded));
         let one = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap();
-        assert_eq!(parallel, one.install(|| grid_min_bounded(&w, bounded)));
+        assert_eq!(
+            parallel,
+            one.install(|| grid_min_bounded(&w, MAX_STEPS, bounded))
+        );
     }
 
     #[test]
