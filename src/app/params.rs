@@ -18,6 +18,13 @@ impl TrackParams {
                 self.length_anchor
             )));
         }
+        if self.search_max_steps == 0 {
+            return Err(Error::Usage(
+                "search_max_steps = 0 is out of range; give at least 1 grid step each side \
+                 (16 is the default, 8 about twice as fast and coarser)"
+                    .to_owned(),
+            ));
+        }
         if !(self.work_box_px.is_finite() && self.work_box_px >= 0.0) {
             return Err(Error::Usage(format!(
                 "work_box_px = {} is out of range; give a rectangle side in px (0 tracks at \
@@ -42,8 +49,14 @@ pub fn read_params(path: Option<&Path>) -> Result<TrackParams> {
             path.display()
         ))
     })?;
-    let params: TrackParams = toml::from_str(&text)
-        .map_err(|e| Error::Usage(format!("{}: {}", path.display(), e.message())))?;
+    let params: TrackParams = toml::from_str(&text).map_err(|e| {
+        // The line of the value or key at fault, when the parser knows it.
+        let line = e
+            .span()
+            .map(|s| format!(", line {}", text[..s.start].matches('\n').count() + 1))
+            .unwrap_or_default();
+        Error::Usage(format!("{}{line}: {}", path.display(), e.message()))
+    })?;
     params.validate().map_err(|e| match e {
         Error::Usage(msg) => Error::Usage(format!("{}: {msg}", path.display())),
         e => e,
@@ -82,5 +95,20 @@ mod tests {
             e.starts_with(&format!("{}: work_box_px", f.display())),
             "{e}"
         );
+        std::fs::write(&f, "search_max_steps = 0\n").unwrap();
+        let e = read_params(Some(&f)).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("{}: search_max_steps = 0", f.display())),
+            "{e}"
+        );
+        // A value of the wrong type: the line it is on.
+        std::fs::write(&f, "search_sigmas = 3.0\nsearch_max_steps = -1\n").unwrap();
+        let e = read_params(Some(&f)).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("{}, line 2: ", f.display())), "{e}");
+        let p = TrackParams {
+            search_max_steps: 8,
+            ..TrackParams::default()
+        };
+        assert!(p.validate().is_ok());
     }
 }
