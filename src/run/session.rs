@@ -376,7 +376,12 @@ impl Session {
         // as `seed_frame + i`.
         let mirror = |f: u64| 2 * seed_frame - f;
         for (idx, frame) in before.iter().rev() {
-            pass.step(mirror(*idx), frame);
+            // A key of `keys.toml` giving every joint, on this frame or before it, lies ahead
+            // of the pass.
+            let key_ahead = keys
+                .iter()
+                .any(|x| x.frame <= *idx && x.joints.iter().all(Option::is_some));
+            pass.step(mirror(*idx), frame, key_ahead);
             if let Some(key) = keys.iter().find(|x| x.frame == *idx) {
                 pass.move_to(key);
             }

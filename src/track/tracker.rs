@@ -70,6 +70,8 @@ pub struct Tracker {
     pub(super) timings: Timings,
     /// The gain the templates are scaled by ([`super::exposure`]).
     pub(super) exposure: Exposure,
+    /// A key of every joint lies ahead of this tracker's pass (see [`Tracker::set_key_ahead`]).
+    key_ahead: bool,
 }
 
 /// Time (seconds) spent in each part of [`Tracker::step`] over all frames so far, for the
@@ -197,7 +199,18 @@ impl Tracker {
             trace: None,
             timings: Timings::default(),
             exposure,
+            key_ahead: false,
         }
+    }
+
+    /// Says whether a key of every joint lies ahead of the frames this tracker steps next (a
+    /// pass run toward a corrected segment file or such a key, forward or backward). With
+    /// [`super::TrackParams::redetect_toward_keys`] off, a body it loses there is not looked
+    /// for over the whole frame (re-detection, docs/method.md §2.6): the pass from the other
+    /// key and Lucas–Kanade's ways carry the joints over the frames it lost, and the keys say
+    /// which to follow (docs/method.md, "Motion between keys"). Off at first.
+    pub fn set_key_ahead(&mut self, on: bool) {
+        self.key_ahead = on;
     }
 
     /// Time spent in each part of the steps so far.
@@ -355,11 +368,13 @@ impl Tracker {
         self.place_hidden(&pred, &evidence, &none, &mut x);
         lap(&mut tm.judge);
         let mut found = self.reacquire_hidden(&views, &judge, &evidence, &mut x);
-        for (f, r) in found
-            .iter_mut()
-            .zip(self.redetect(&views, &judge, &evidence, &mut x))
-        {
-            *f |= r;
+        if !self.key_ahead || self.params.redetect_toward_keys {
+            for (f, r) in found
+                .iter_mut()
+                .zip(self.redetect(&views, &judge, &evidence, &mut x))
+            {
+                *f |= r;
+            }
         }
         if found.iter().any(|&f| f) {
             self.refine(&views, &pred, &mut x);

@@ -272,8 +272,9 @@ fn flies_clip_runs_and_reports_its_error() {
 
 /// PCK@5 (0–1) over frames `from..` of the walk clip (640×360, seed 1) where the character
 /// vanishes on frame 40 and reappears 160 px further across on frame 50 (its pixels moved onto
-/// the clean background), tracked in memory with `params`.
-fn walk_with_jump_pck5(params: mocap2d::track::TrackParams, from: usize) -> f32 {
+/// the clean background), tracked in memory with `params`; `key_ahead`: tracked as a pass
+/// toward a key ([`mocap2d::track::Tracker::set_key_ahead`]).
+fn walk_with_jump_pck5(params: mocap2d::track::TrackParams, from: usize, key_ahead: bool) -> f32 {
     use mocap2d::background::Background;
     use mocap2d::track::Tracker;
     let clip = synth_clip(Scenario::Walk, 640, 360, 1, None);
@@ -305,6 +306,7 @@ fn walk_with_jump_pck5(params: mocap2d::track::TrackParams, from: usize) -> f32 
         &frames[0],
         Some(Background::fit(std::slice::from_ref(bgi)).unwrap()),
     );
+    t.set_key_ahead(key_ahead);
     let (mut hit, mut n) = (0, 0);
     for (f, frame) in frames.iter().enumerate().skip(1) {
         let est = t.step(frame);
@@ -319,22 +321,41 @@ fn walk_with_jump_pck5(params: mocap2d::track::TrackParams, from: usize) -> f32 
 }
 
 /// A body lost from sight that reappears far from where it was lost is looked for over the
-/// whole frame and found again; without the whole-frame search it is not.
+/// whole frame and found again; without the whole-frame search it is not. A pass run toward a
+/// key looks for it too, unless `redetect_toward_keys` is off.
 #[test]
 fn a_body_lost_for_a_while_is_found_again() {
-    let with = walk_with_jump_pck5(Default::default(), 75);
+    use mocap2d::track::TrackParams;
+    let with = walk_with_jump_pck5(Default::default(), 75, false);
     let without = walk_with_jump_pck5(
-        mocap2d::track::TrackParams {
+        TrackParams {
             redetect_after: 0,
             ..Default::default()
         },
         75,
+        false,
     );
-    println!("PCK@5 after the jump: {with} with re-detection, {without} without");
+    let toward_key = walk_with_jump_pck5(Default::default(), 75, true);
+    let not_toward_keys = TrackParams {
+        redetect_toward_keys: false,
+        ..Default::default()
+    };
+    let off_toward_key = walk_with_jump_pck5(not_toward_keys.clone(), 75, true);
+    let off_no_key = walk_with_jump_pck5(not_toward_keys, 75, false);
+    println!(
+        "PCK@5 after the jump: {with} with re-detection, {without} without, {toward_key} toward \
+         a key; with redetect_toward_keys off {off_toward_key} toward a key, {off_no_key} with none"
+    );
     // Measured: 90.3 % with, 0 % without (frames 75–119); 89.2 % with before the bone-length
     // prior was anchored to the seed length.
     assert!(with >= 0.8, "with re-detection: PCK@5 {with}");
     assert!(without < 0.5, "without re-detection: PCK@5 {without}");
+    assert_eq!(toward_key, with, "toward a key, by default");
+    assert!(
+        off_toward_key < 0.5,
+        "toward a key, off: PCK@5 {off_toward_key}"
+    );
+    assert_eq!(off_no_key, with, "off, with no key ahead");
 }
 
 /// Two look-alike bodies (the walk character and a copy of it 160 px behind, seeded as two

@@ -67,14 +67,17 @@ pub(super) fn keys_past_end(
 impl Session {
     /// Reads the frames after `from` (the next segment's first frame, just tracked) up to
     /// `key_frame` and tracks them with the tracker segment `k1` carries on with (the state
-    /// kept in [`Session::carried`]), their Lucas–Kanade pyramids built alongside (`built`).
-    /// `None` when the clip ends first, or the frames up to the key would take more than
-    /// [`AHEAD_BYTES`]: the frames read are given back.
+    /// kept in [`Session::carried`]), their Lucas–Kanade pyramids built alongside (`built`);
+    /// up to `whole_until`, a key of every joint lies ahead of the pass
+    /// ([`crate::track::Tracker::set_key_ahead`]). `None` when the clip ends first, or the
+    /// frames up to the key would take more than [`AHEAD_BYTES`]: the frames read are given
+    /// back.
     pub(super) fn read_ahead<I: Iterator<Item = Result<(u64, Frame)>>>(
         &self,
         k1: u64,
         from: u64,
         key_frame: u64,
+        whole_until: Option<u64>,
         frames: &mut Frames<'_, I>,
         built: &mut flow::Built,
     ) -> Result<Option<Ahead>> {
@@ -91,7 +94,8 @@ impl Session {
             bytes += frame.bytes();
             let over = bytes > AHEAD_BYTES;
             if !over {
-                rayon::join(|| pass.step(idx, &frame), || built.add(&frame));
+                let ahead = whole_until.is_some_and(|f| idx <= f);
+                rayon::join(|| pass.step(idx, &frame, ahead), || built.add(&frame));
                 reached = idx == key_frame;
             }
             read.push((idx, frame));

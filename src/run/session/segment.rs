@@ -81,6 +81,19 @@ impl Session {
         // joint's next), read ahead ([`ahead`]).
         let past_end = ahead::keys_past_end(keys, next, end.is_some(), first.bytes());
         let hold = end.is_some() || !inner.is_empty() || key_next.is_some() || !past_end.is_empty();
+        // Whether a key of every joint lies on or beyond frame `idx` for a pass run forward (the
+        // next correction, a key at or past the segment's end, or one inside still to come) and
+        // for one run backward (the segment's first frame when it is a key, or a key inside still
+        // to come): there a pass does not look for a lost body over the whole frame
+        // ([`crate::track::Tracker::set_key_ahead`]). A key of some joints leaves the others'
+        // spans running on past it, so it does not count.
+        let whole = |x: &Key| x.joints.iter().all(Option::is_some);
+        let far_key =
+            end.is_some() || key_next.is_some_and(whole) || past_end.iter().any(|&x| whole(x));
+        let start_key = keyframe || key_here.is_some_and(whole);
+        let ahead_forward = |idx: u64| far_key || inner.iter().any(|&x| x.frame >= idx && whole(x));
+        let ahead_backward =
+            |idx: u64| start_key || inner.iter().any(|&x| x.frame <= idx && whole(x));
         // Between two corrections with no key inside, the passes that only feed the blend wait
         // until the span is known not to be led by flow ([`keyed::lead`]): where it is,
         // the carried pass and the one backward from the correction decide, at two passes'
@@ -122,7 +135,7 @@ impl Session {
             rayon::join(
                 || {
                     for p in &mut forward {
-                        p.step(idx, &frame);
+                        p.step(idx, &frame, ahead_forward(idx));
                     }
                 },
                 || built.add(&frame),
@@ -196,7 +209,8 @@ impl Session {
             let back_pass = |appearance: Appearance| -> Result<Vec<(u64, Vec<JointEstimate>)>> {
                 let mut p = self.tracker_at(end, bf, appearance)?;
                 for (i, f) in held.iter().enumerate().rev() {
-                    p.step(plan.first_frame(k) + 1 + i as u64, f);
+                    let idx = plan.first_frame(k) + 1 + i as u64;
+                    p.step(idx, f, ahead_backward(idx));
                 }
                 let mut back = p.finish();
                 back.reverse();
@@ -269,6 +283,7 @@ impl Session {
                     first_frame,
                     &held,
                     Some((first_frame + 1 + n as u64, bf)),
+                    ahead_forward,
                 ),
             };
             first_passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
@@ -279,7 +294,13 @@ impl Session {
             // correction.
             let n = out.len() - 1;
             let mut passes = vec![between(&out, n)];
-            let later = run_over(build(self, &deferred)?, first_frame, &held, None);
+            let later = run_over(
+                build(self, &deferred)?,
+                first_frame,
+                &held,
+                None,
+                ahead_forward,
+            );
             passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
             passes
         } else {
@@ -300,7 +321,15 @@ impl Session {
         let last = boundary.as_ref().or(tail.as_ref());
         let n = held.len();
         let ahead = match (past_end.last(), &boundary) {
-            (Some(key), Some(_)) => self.read_ahead(k + 1, next, key.frame, frames, &mut built)?,
+            (Some(key), Some(_)) => {
+                // The last frame a key of every joint read ahead lies on, if any.
+                let whole_until = past_end
+                    .iter()
+                    .filter(|&&x| whole(x))
+                    .map(|x| x.frame)
+                    .max();
+                self.read_ahead(k + 1, next, key.frame, whole_until, frames, &mut built)?
+            }
             _ => None,
         };
         let mut anchors: Vec<(usize, Vec<Option<Point>>)> =
@@ -439,12 +468,14 @@ impl Session {
 
 /// Runs `passes` (started on frame `first_frame`) over the `held` frames that follow it and
 /// the frame `last` after them, if any (the next key's: a pass hands rows out after it has seen
-/// the frames that follow them, so its rows on the held frames depend on it).
+/// the frames that follow them, so its rows on the held frames depend on it); `key_ahead(idx)`:
+/// whether a key lies on or beyond frame `idx` ([`Pass::step`]).
 fn run_over(
     mut passes: Vec<Pass>,
     first_frame: u64,
     held: &[Frame],
     last: Option<(u64, &Frame)>,
+    key_ahead: impl Fn(u64) -> bool,
 ) -> Vec<Vec<(u64, Vec<JointEstimate>)>> {
     let frames = held
         .iter()
@@ -452,7 +483,7 @@ fn run_over(
         .map(|(i, f)| (first_frame + 1 + i as u64, f));
     for (idx, f) in frames.chain(last) {
         for p in &mut passes {
-            p.step(idx, f);
+            p.step(idx, f, key_ahead(idx));
         }
     }
     passes.into_iter().map(Pass::finish).collect()
