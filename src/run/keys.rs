@@ -27,6 +27,14 @@ pub struct Key {
     pub joints: Vec<Option<Point>>,
 }
 
+impl Key {
+    /// Whether the key gives every joint (a key of some joints leaves the others' spans running
+    /// on past it).
+    pub fn gives_every_joint(&self) -> bool {
+        self.joints.iter().all(Option::is_some)
+    }
+}
+
 /// Where a run keeps its keys.
 pub fn path(run_dir: &Path) -> PathBuf {
     run_dir.join("keys.toml")

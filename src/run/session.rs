@@ -380,7 +380,7 @@ impl Session {
             // of the pass.
             let key_ahead = keys
                 .iter()
-                .any(|x| x.frame <= *idx && x.joints.iter().all(Option::is_some));
+                .any(|x| x.frame <= *idx && x.gives_every_joint());
             pass.step(mirror(*idx), frame, key_ahead);
             if let Some(key) = keys.iter().find(|x| x.frame == *idx) {
                 pass.move_to(key);

@@ -77,8 +77,8 @@ impl Pass {
         }
     }
 
-    /// Tracks frame `idx`; `key_ahead`: a key lies on or beyond it in the pass's direction
-    /// ([`Tracker::set_key_ahead`]).
+    /// Tracks frame `idx`; `key_ahead`: a key of every joint lies on or beyond it in the pass's
+    /// direction ([`Tracker::set_key_ahead`]).
     pub(super) fn step(&mut self, idx: u64, frame: &Frame, key_ahead: bool) {
         self.tracker.set_key_ahead(key_ahead);
         let est = self.tracker.step(frame);

@@ -84,16 +84,24 @@ impl Session {
         // Whether a key of every joint lies on or beyond frame `idx` for a pass run forward (the
         // next correction, a key at or past the segment's end, or one inside still to come) and
         // for one run backward (the segment's first frame when it is a key, or a key inside still
-        // to come): there a pass does not look for a lost body over the whole frame
-        // ([`crate::track::Tracker::set_key_ahead`]). A key of some joints leaves the others'
-        // spans running on past it, so it does not count.
-        let whole = |x: &Key| x.joints.iter().all(Option::is_some);
-        let far_key =
-            end.is_some() || key_next.is_some_and(whole) || past_end.iter().any(|&x| whole(x));
-        let start_key = keyframe || key_here.is_some_and(whole);
-        let ahead_forward = |idx: u64| far_key || inner.iter().any(|&x| x.frame >= idx && whole(x));
-        let ahead_backward =
-            |idx: u64| start_key || inner.iter().any(|&x| x.frame <= idx && whole(x));
+        // to come): there a pass may leave out the search for a lost body over the whole frame
+        // (`redetect_toward_keys`, [`crate::track::Tracker::set_key_ahead`]).
+        let far_key = end.is_some()
+            || key_next.is_some_and(Key::gives_every_joint)
+            || past_end.iter().any(|x| x.gives_every_joint());
+        let start_key = keyframe || key_here.is_some_and(Key::gives_every_joint);
+        let ahead_forward = |idx: u64| {
+            far_key
+                || inner
+                    .iter()
+                    .any(|x| x.frame >= idx && x.gives_every_joint())
+        };
+        let ahead_backward = |idx: u64| {
+            start_key
+                || inner
+                    .iter()
+                    .any(|x| x.frame <= idx && x.gives_every_joint())
+        };
         // Between two corrections with no key inside, the passes that only feed the blend wait
         // until the span is known not to be led by flow ([`keyed::lead`]): where it is,
         // the carried pass and the one backward from the correction decide, at two passes'
@@ -325,7 +333,7 @@ impl Session {
                 // The last frame a key of every joint read ahead lies on, if any.
                 let whole_until = past_end
                     .iter()
-                    .filter(|&&x| whole(x))
+                    .filter(|x| x.gives_every_joint())
                     .map(|x| x.frame)
                     .max();
                 self.read_ahead(k + 1, next, key.frame, whole_until, frames, &mut built)?
@@ -469,7 +477,7 @@ impl Session {
 /// Runs `passes` (started on frame `first_frame`) over the `held` frames that follow it and
 /// the frame `last` after them, if any (the next key's: a pass hands rows out after it has seen
 /// the frames that follow them, so its rows on the held frames depend on it); `key_ahead(idx)`:
-/// whether a key lies on or beyond frame `idx` ([`Pass::step`]).
+/// whether a key of every joint lies on or beyond frame `idx` ([`Pass::step`]).
 fn run_over(
     mut passes: Vec<Pass>,
     first_frame: u64,
