@@ -21,7 +21,7 @@ impl TrackParams {
         if self.search_max_steps == 0 {
             return Err(Error::Usage(
                 "search_max_steps = 0 is out of range; give at least 1 grid step each side \
-                 (16 is the default, 8 about twice as fast and coarser)"
+                 (16 is the default; 8 is faster and coarser)"
                     .to_owned(),
             ));
         }
