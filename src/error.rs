@@ -63,6 +63,10 @@ pub enum Error {
     #[error("{}: {msg}", path.display())]
     Encode { path: PathBuf, msg: String },
 
+    /// The pose network's engine failed on a frame (not the user's to fix: exit code 1).
+    #[error("{0}")]
+    Engine(String),
+
     /// The work was interrupted (Ctrl-C, SIGTERM); no file was left half-written.
     #[error("interrupted; no file was left half-written (a `track` or `resume` carries on with `mocap2d resume RUN`)")]
     Interrupted,
