@@ -4,6 +4,7 @@
 mod export;
 mod guide;
 mod params;
+mod pose;
 mod render;
 mod report;
 mod resume;
@@ -17,6 +18,7 @@ pub use crate::run::blend::blend;
 pub use export::{export, ExportOptions, ExportSummary, UserSkeleton};
 pub use guide::{guide, GuideOptions, GuideSummary};
 pub use params::read_params;
+pub use pose::{seed, SeedOptions, SeedSummary, POSE_CSV};
 pub use render::{render, RenderOptions, RenderSummary};
 pub use report::{eval, report};
 pub use resume::{resume, ResumeOptions};

@@ -24,6 +24,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// A person's seed file from the pose network: the 17 COCO joints on one frame.
+    Seed(SeedArgs),
     /// Track the joints of a seed file through a clip (video file or folder of numbered frames).
     Track(TrackArgs),
     /// Carry on a run after a crash, or re-track it from a corrected segment file.

@@ -1,7 +1,8 @@
 //! mocap2d: capture the motion of a character's joints from a 2D video and retarget it.
 //!
 //! The pipeline, one module a stage, data flowing one way:
-//! [`decode`] (frames in) → [`background`] (clean plate, foreground mask) → [`track`] (template,
+//! [`decode`] (frames in) → [`background`] (clean plate, foreground mask) → [`pose`] (learned
+//! human pose cue) → [`track`] (template,
 //! Kalman filter, search) → [`run`] (run folder, manifest) → [`retarget`] (onto a target
 //! [`character`], cartoon filter) → [`deform`] (mesh, skinning, needle model, joint solve) →
 //! [`render`] (textured triangles). [`synth`] renders test clips with ground truth. Coordinates
@@ -20,6 +21,7 @@ pub mod error;
 pub mod eval;
 pub mod export;
 pub mod geom;
+pub mod pose;
 pub mod progress;
 pub mod render;
 pub mod retarget;

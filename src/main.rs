@@ -228,6 +228,29 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
     };
     match cli.command {
         Command::Batch(a) => return batch(a, bars.on),
+        Command::Seed(a) => {
+            let opts = a.options()?;
+            let s = app::seed(&opts)?;
+            let unsure = if s.unsure.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; the network is unsure of {}: check them",
+                    s.unsure.join(", ")
+                )
+            };
+            eprintln!(
+                "wrote {} joints of the {} on frame {} to {}{unsure}",
+                s.joints,
+                if s.people > 1 {
+                    format!("chosen person of {}", s.people)
+                } else {
+                    "person".into()
+                },
+                opts.frame,
+                opts.out.display()
+            );
+        }
         Command::Track(a) => {
             let (opts, other) = a.options()?;
             let s = app::track_into(&opts, other, &bars)?;

@@ -93,7 +93,12 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
     let rx = session.frames_from(source, true);
     let result = session.run(rx.into_iter(), first, progress);
     progress.finish();
-    let done = result?;
+    let mut done = result?;
+    let mode = session.manifest.params.pose;
+    if let Some(lms) = super::pose::recorded(run_dir, mode, done.frames)? {
+        crate::run::fuse::apply(run_dir, &session.names, &lms)?;
+        done = session.rereport(done.frames)?;
+    }
     Ok(Some(TrackSummary::new(run_dir.clone(), &session, &done)))
 }
 

@@ -151,6 +151,13 @@ pub fn track_into(
             },
             (e, _) => e,
         })?;
+    // The pose cue's engine loads before anything is written.
+    let pose_mode = opts.params.pose;
+    let engine = if super::pose::wanted(pose_mode, &seeds) {
+        Some(super::pose::load_engine()?)
+    } else {
+        None
+    };
     if opts.segment_len == 0 {
         return Err(Error::Usage(
             "--segment-len 0: a segment needs at least 1 frame".into(),
@@ -239,6 +246,11 @@ pub fn track_into(
     )
     .map_err(abandon)?;
     let names: Vec<String> = seeds.joints.iter().map(|j| j.name.clone()).collect();
+    let _ = std::fs::remove_file(run_dir.join(super::pose::POSE_CSV));
+    let pose_pass = match engine {
+        Some(e) => Some(super::pose::start(e, &opts.clip, opts.fps, &seeds).map_err(abandon)?),
+        None => None,
+    };
     let mut session = Session {
         run_dir: run_dir.clone(),
         base: seeds,
@@ -276,7 +288,15 @@ pub fn track_into(
         },
         e => e,
     });
-    let done = done.map_err(abandon)?;
+    let mut done = done.map_err(abandon)?;
+    let mut pose_note = None;
+    if let Some(pass) = pose_pass {
+        progress.start("pose", None);
+        let lms = pass.finish();
+        progress.finish();
+        pose_note = super::pose::fuse_run(&run_dir, &session.base, pose_mode, &lms?)?;
+        done = session.rereport(done.frames)?;
+    }
     if decode_stop.is_none() {
         decode_stop = decode::short_of_duration(&info, done.frames);
     }
@@ -295,7 +315,7 @@ pub fn track_into(
             if work.halvings == 1 { "once" } else { "twice" }
         )
     });
-    summary.note = [Some(note), Some(crowding), camera_note, halved]
+    summary.note = [Some(note), Some(crowding), camera_note, halved, pose_note]
         .into_iter()
         .flatten()
         .filter(|n| !n.is_empty())

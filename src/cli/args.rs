@@ -267,6 +267,29 @@ pub struct TrackArgs {
     /// report.md, run.toml and seeds.toml are kept in history/).
     #[arg(long)]
     pub replace: bool,
+    /// The learned human pose cue: auto (a person's joint names, the network agreeing with the
+    /// seeds on the seed frame), on (a person's joint names), off [default: --params', else auto].
+    #[arg(long, value_name = "MODE", value_parser = ["auto", "on", "off"])]
+    pub pose: Option<String>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct SeedArgs {
+    /// The clip: a video FFmpeg decodes, or a folder of numbered PNG/JPEG frames.
+    pub clip: PathBuf,
+    /// The frame to seed on (0-based).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub frame: u64,
+    /// The seed file to write.
+    #[arg(long, value_name = "TOML")]
+    pub out: PathBuf,
+    /// With several people, the one inside this rectangle (px: left, top, width, height)
+    /// [default: the largest].
+    #[arg(long = "box", value_name = "X,Y,W,H", value_delimiter = ',')]
+    pub within: Option<Vec<f32>>,
+    /// Frame rate in frames/s for image folders.
+    #[arg(long)]
+    pub fps: Option<f64>,
 }
 
 #[derive(Debug, clap::Args)]

@@ -52,8 +52,15 @@ impl TrackArgs {
             true => app::OtherClip::Replace,
             false => app::OtherClip::Refuse,
         };
+        let mut params = app::read_params(self.params.as_deref())?;
+        params.pose = match self.pose.as_deref() {
+            Some("on") => mocap2d::track::PoseMode::On,
+            Some("off") => mocap2d::track::PoseMode::Off,
+            Some(_) => mocap2d::track::PoseMode::Auto,
+            None => params.pose,
+        };
         let opts = app::TrackOptions {
-            params: app::read_params(self.params.as_deref())?,
+            params,
             clip: self.clip,
             seeds,
             dlc,
@@ -79,6 +86,27 @@ impl TrackArgs {
             (Some(s), None) => (s.clone(), None),
             (None, None) => unreachable!("clap requires --seeds or --seeds-from-dlc"),
         }
+    }
+}
+
+impl SeedArgs {
+    /// The options of `seed`.
+    pub fn options(self) -> Result<app::SeedOptions> {
+        let within = match self.within {
+            None => None,
+            Some(v) if v.len() == 4 && v[2] > 0.0 && v[3] > 0.0 => Some([v[0], v[1], v[2], v[3]]),
+            Some(_) => return Err(mocap2d::Error::Usage(
+                "--box takes x,y,w,h with a positive width and height, e.g. --box 100,50,200,400"
+                    .into(),
+            )),
+        };
+        Ok(app::SeedOptions {
+            clip: self.clip,
+            frame: self.frame,
+            out: self.out,
+            within,
+            fps: self.fps,
+        })
     }
 }
 

@@ -21,6 +21,7 @@
 pub mod blend;
 pub mod evidence;
 pub mod folder;
+pub mod fuse;
 pub mod keyed;
 pub mod keys;
 pub mod lock;

@@ -491,6 +491,20 @@ impl Session {
         })
     }
 
+    /// Rewrites `report.md` from `tracks.csv` as it is now (after the pose cue's fusion).
+    pub fn rereport(&self, frames: u64) -> Result<Finished> {
+        let (tally, report) = self.report()?;
+        crate::atomic::write(
+            &self.run_dir.join("report.md"),
+            report.to_markdown().as_bytes(),
+        )?;
+        Ok(Finished {
+            frames,
+            tally,
+            report,
+        })
+    }
+
     /// The report on the run's `tracks.csv`.
     pub fn report(&self) -> Result<(Tally, Report)> {
         crate::run::report::for_run(

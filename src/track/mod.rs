@@ -41,7 +41,7 @@ pub mod state;
 pub mod strip;
 mod tracker;
 
-pub use params::TrackParams;
+pub use params::{PoseMode, TrackParams};
 pub use tracker::{Timings, Trace, Tracker};
 
 use crate::geom::Point;

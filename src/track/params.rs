@@ -146,6 +146,20 @@ pub struct TrackParams {
     /// fast, scoring the same), but a character that turns round between two keys is found
     /// again less often (synth `long` corrected 0.4 points lower).
     pub redetect_toward_keys: bool,
+    /// The learned human pose cue (docs/method.md §2.8): `auto` runs it for a skeleton with a
+    /// person's joint names whose seeds the network agrees with on the seed frame, `on` for any
+    /// skeleton with a person's joint names, `off` never.
+    pub pose: PoseMode,
+}
+
+/// When the pose cue runs (see [`TrackParams::pose`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PoseMode {
+    #[default]
+    Auto,
+    On,
+    Off,
 }
 
 /// The defaults, chosen on many synthetic clips at once (`scripts/accuracy`, seeds 1–30 of the
@@ -206,6 +220,7 @@ impl Default for TrackParams {
             redetect_every: 4,
             redetect_share: 0.2,
             redetect_toward_keys: true,
+            pose: PoseMode::Auto,
         }
     }
 }

@@ -21,6 +21,7 @@ mod hardening;
 mod hardening_files;
 mod hardening_run;
 mod keyframes;
+mod pose;
 mod review;
 mod run_lock;
 mod run_safety;
