@@ -286,7 +286,7 @@ pub fn add_animation(
 
     // IK constraints over matched bones: mix 0, or their targets moved.
     let mut ik_keys = Map::new();
-    let mut lines = Vec::new();
+    let mut ik_lines = Vec::new();
     let over: Vec<&Ik> = iks
         .iter()
         .filter(|ik| ik.bones.iter().any(|&b| follows[b].is_some()))
@@ -321,7 +321,7 @@ pub fn add_animation(
                 })
                 .collect();
             shift[ik.target] = Some(values.iter().map(|v| [v[0], v[1]]).collect());
-            lines.push(format!(
+            ik_lines.push(format!(
                 "IK constraint {} kept (--keep-ik): its target {} is keyed to follow the motion",
                 ik.name, bones[ik.target].name
             ));
@@ -333,7 +333,7 @@ pub fn add_animation(
     }
     if !opts.keep_ik && !over.is_empty() {
         let list: Vec<&str> = over.iter().map(|ik| ik.name.as_str()).collect();
-        lines.push(format!(
+        ik_lines.push(format!(
             "IK constraints over mapped bones ({}): their mix is keyed to 0 in this animation, \
              so the bones follow the motion (--keep-ik keeps them and moves their targets)",
             list.join(", ")
@@ -345,6 +345,7 @@ pub fn add_animation(
     let mut timelines = Map::new();
     let mut map_lines = Vec::new();
     let mut alone = Vec::new();
+    let mut lines = Vec::new();
     for (i, b) in bones.iter().enumerate() {
         let mut tl = Map::new();
         if let Some(values) = &rot[i] {
@@ -382,6 +383,7 @@ pub fn add_animation(
     if !alone.is_empty() {
         lines.push(format!("left in their setup pose: {}", alone.join(", ")));
     }
+    lines.append(&mut ik_lines);
     let mut warnings = Vec::new();
     if let Some((theirs, capture)) = structure.widths {
         if theirs < SIDE_VIEW_WIDTH && capture > FRONT_VIEW_WIDTH {

@@ -1261,6 +1261,7 @@ fn spineboy_maps_by_structure_with_no_bone_flag_and_its_legs_follow() {
     };
     let out = rig.join("spineboy-mocap.json");
     let err = export(&out, &[]);
+    eprintln!("{err}");
     for line in [
         "front-upper-arm = left_shoulder (rotate, by structure)",
         "front-bracer = left_elbow (rotate, by structure)",
