@@ -1301,6 +1301,15 @@ fn spineboy_maps_by_structure_with_no_bone_flag_and_its_legs_follow() {
     );
     assert_eq!(added["ik"]["front-leg-ik"][0]["mix"], 0);
     assert_eq!(added["ik"]["front-leg-ik"][0]["bendPositive"], false);
+    // Again: the same bytes, and the mapping file (perhaps edited since) is not written over.
+    std::fs::write(&map, format!("{map_text}# edited\n")).unwrap();
+    let err = export(&out, &[]);
+    assert!(err.contains("exists and is left as it is"), "{err}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), text);
+    assert_eq!(
+        std::fs::read_to_string(&map).unwrap(),
+        format!("{map_text}# edited\n")
+    );
 
     // spine-core 4.2 loads it; the legs turn with the dancer's legs since the first frame.
     let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
