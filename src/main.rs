@@ -337,6 +337,9 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             if !s.note.is_empty() {
                 eprintln!("note: {}", s.note);
             }
+            for w in &s.warnings {
+                eprintln!("warning: {w}");
+            }
         }
         Command::Guide(a) => {
             let opts = a.options();

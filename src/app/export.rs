@@ -6,12 +6,16 @@
 use super::retarget::{hash_file, run_frame, RETARGET_DIR};
 use crate::character::{read_character, Character};
 use crate::error::{Error, Result};
+use crate::export::contacts::{self, ContactEvent};
 use crate::export::keys::Keys;
 use crate::export::{
     bvh, dlc, dragonbones, json, skin, spine, spine_rig, Animation, Format, Tracks,
 };
 use crate::retarget::files::{self, RetargetManifest};
 use std::path::{Path, PathBuf};
+
+/// The foot contacts `mocap2d retarget` writes in the run's retarget folder (docs/formats.md).
+pub const CONTACTS_CSV: &str = "contacts.csv";
 
 /// Options of `mocap2d export`.
 #[derive(Debug, Clone)]
@@ -35,8 +39,15 @@ pub struct UserSkeleton {
     pub path: PathBuf,
     /// The animation's name.
     pub animation: String,
-    /// Their bone -> the character's joint it follows.
-    pub bones: std::collections::BTreeMap<String, String>,
+    /// `--bone`: their bone and the joint it turns at (`PIVOT`, `PIVOT>JOINT`, a root joint),
+    /// in the order given.
+    pub bones: Vec<(String, String)>,
+    /// `--bone-map`: a mapping file (`[bones]`, as the export writes it); `--bone` overrides
+    /// its lines.
+    pub bone_map: Option<PathBuf>,
+    /// Keep IK constraints over mapped bones, moving their targets (else their mix is keyed to
+    /// 0 in the animation).
+    pub keep_ik: bool,
 }
 
 /// What `export` wrote.
@@ -48,8 +59,11 @@ pub struct ExportSummary {
     pub joints: usize,
     /// Something the user should know (e.g. the JSON has no retargeted pose), or empty.
     pub note: String,
-    /// With a user skeleton: which of their bones follows which joint.
+    /// Lines to print: with a user skeleton, which of their bones follows which joint; the
+    /// contact events carried.
     pub matches: Vec<String>,
+    /// What the user should check.
+    pub warnings: Vec<String>,
 }
 
 /// `mocap2d export`.
@@ -94,6 +108,7 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
 
     let mut note = String::new();
     let mut matches = Vec::new();
+    let mut warnings = Vec::new();
     let mut files_out: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     let (frames, joints) = match format {
         Format::Spine if opts.skeleton.is_some() => {
@@ -106,16 +121,44 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
                     user.path.display()
                 ))
             })?;
+            let mut given = match &user.bone_map {
+                Some(p) => read_bone_map(p)?,
+                None => Vec::new(),
+            };
+            given.extend(
+                user.bones
+                    .iter()
+                    .map(|(b, j)| (b.clone(), j.clone(), "--bone".to_owned())),
+            );
             let r = spine_rig::add_animation(
                 &text,
                 &user.path,
                 anim,
-                &user.animation,
-                &user.bones,
-                opts.keys,
+                &spine_rig::RigOptions {
+                    name: user.animation.clone(),
+                    given,
+                    keys: opts.keys,
+                    keep_ik: user.keep_ik,
+                },
             )?;
+            warnings = r.warnings;
             matches = r.matches;
             files_out.push((opts.out.clone(), r.text.into_bytes()));
+            // The mapping file, beside --out: never over one the user may have edited.
+            let map = bone_map_path(&opts.out);
+            if user.bone_map.is_none() && !map.exists() {
+                matches.push(format!(
+                    "mapping written to {}: edit it and pass it back with --bone-map",
+                    map.display()
+                ));
+                files_out.push((map, r.map_file.into_bytes()));
+            } else if user.bone_map.is_none() {
+                warnings.push(format!(
+                    "{} exists and is left as it is (this mapping is printed above): pass it \
+                     with --bone-map to use it, or delete it to have it written again",
+                    map.display()
+                ));
+            }
             let from = user.path.parent().filter(|p| !p.as_os_str().is_empty());
             let same_dir = match (
                 from.unwrap_or(Path::new(".")).canonicalize(),
@@ -137,10 +180,11 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
             // Cannot fail: formats that need a pose loaded it above.
             let (anim, manifest) = pose.as_ref().expect("checked above");
             let character = target_character(opts, manifest, &retarget_dir)?;
+            let events = contact_events(&retarget_dir, anim, &mut matches)?;
             let mesh = skin::skin_mesh(&character, manifest.placement(), &anim.joints[0])?;
             files_out.push((
                 opts.out.clone(),
-                spine::to_spine(anim, &mesh, opts.keys).into(),
+                spine::to_spine(anim, &mesh, opts.keys, &events).into(),
             ));
             files_out.push((opts.out.with_extension("atlas"), spine::atlas(&mesh).into()));
             files_out.push((out_dir.join(&mesh.image), read_image(&character)?));
@@ -150,12 +194,13 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
             // Cannot fail: formats that need a pose loaded it above.
             let (anim, manifest) = pose.as_ref().expect("checked above");
             let character = target_character(opts, manifest, &retarget_dir)?;
+            let events = contact_events(&retarget_dir, anim, &mut matches)?;
             let mesh = skin::skin_mesh(&character, manifest.placement(), &anim.joints[0])?;
             let base = dragonbones_base(&opts.out);
             let (tex, png) = (format!("{base}_tex.json"), format!("{base}_tex.png"));
             files_out.push((
                 opts.out.clone(),
-                dragonbones::to_dragonbones(anim, &mesh, opts.keys).into(),
+                dragonbones::to_dragonbones(anim, &mesh, opts.keys, &events).into(),
             ));
             files_out.push((
                 out_dir.join(&tex),
@@ -210,7 +255,65 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
         joints,
         note,
         matches,
+        warnings,
     })
+}
+
+/// Where `export --skeleton` writes the bone mapping: beside `out`, `NAME.bones.toml`.
+pub fn bone_map_path(out: &Path) -> PathBuf {
+    out.with_extension("bones.toml")
+}
+
+/// The `[bones]` of a bone-map file as (bone, mapping, the file's name) in the file's order.
+fn read_bone_map(path: &Path) -> Result<Vec<(String, String, String)>> {
+    let bad = |msg: String| {
+        Error::Usage(format!(
+            "--bone-map {}: {msg}; give the file `mocap2d export --skeleton` wrote ([bones], \
+             BONE = \"PIVOT\")",
+            path.display()
+        ))
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read it ({e})")))?;
+    let doc: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| bad(format!("not TOML ({})", e.message())))?;
+    let Some(toml::Value::Table(bones)) = doc.get("bones") else {
+        return Err(bad("no [bones] table".into()));
+    };
+    let from = path.display().to_string();
+    // The file's order (toml's tables are sorted; the order only matters for messages).
+    bones
+        .iter()
+        .map(|(k, v)| match v.as_str() {
+            Some(j) => Ok((k.clone(), j.to_owned(), from.clone())),
+            None => Err(bad(format!(
+                "{k}: expected a joint name in quotes, found {v}"
+            ))),
+        })
+        .collect()
+}
+
+/// The foot contacts of the retarget (`contacts.csv`, when it wrote one) as events; says how
+/// many in `lines`.
+fn contact_events(
+    retarget_dir: &Path,
+    anim: &Animation,
+    lines: &mut Vec<String>,
+) -> Result<Vec<ContactEvent>> {
+    let path = retarget_dir.join(CONTACTS_CSV);
+    if !path.is_file() {
+        return Ok(Vec::new());
+    }
+    let events = contacts::read_contacts(&path, &anim.skeleton, &anim.frames)?;
+    let starts = events.iter().filter(|e| e.start).count();
+    lines.push(format!(
+        "{}: {starts} contact starts and {} ends as events ({}, {})",
+        path.display(),
+        events.len() - starts,
+        contacts::CONTACT_START,
+        contacts::CONTACT_END
+    ));
+    Ok(events)
 }
 
 /// The target character of a Spine or DragonBones export: `--target`, or else the file

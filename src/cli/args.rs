@@ -74,10 +74,19 @@ pub struct ExportArgs {
     /// With --skeleton: the animation's name (an animation of that name is replaced).
     #[arg(long, default_value = "mocap", requires = "skeleton")]
     pub animation: String,
-    /// With --skeleton: their bone BONE follows the character's joint JOINT (repeatable);
-    /// bones named as a joint match without it.
-    #[arg(long, value_name = "BONE=JOINT", requires = "skeleton", value_parser = parse_bone_pair)]
+    /// With --skeleton: their bone BONE turns at the character's joint PIVOT (repeatable;
+    /// PIVOT>JOINT when several bones turn there; a root joint moves the bone); other bones map
+    /// by name and structure.
+    #[arg(long, value_name = "BONE=PIVOT", requires = "skeleton", value_parser = parse_bone_pair)]
     pub bone: Vec<(String, String)>,
+    /// With --skeleton: the bone mapping from this file (as the export writes it beside --out,
+    /// NAME.bones.toml); --bone overrides its lines.
+    #[arg(long, value_name = "FILE", requires = "skeleton")]
+    pub bone_map: Option<PathBuf>,
+    /// With --skeleton: keep IK constraints over mapped bones and key their targets instead
+    /// (by default the animation keys their mix to 0).
+    #[arg(long, requires = "skeleton")]
+    pub keep_ik: bool,
 }
 
 fn parse_bone_pair(s: &str) -> Result<(String, String), String> {
@@ -86,7 +95,8 @@ fn parse_bone_pair(s: &str) -> Result<(String, String), String> {
             Ok((a.trim().to_owned(), b.trim().to_owned()))
         }
         _ => Err(format!(
-            "{s:?}: expected THEIR_BONE=JOINT, e.g. upper_arm_l=elbow_l"
+            "{s:?}: expected THEIR_BONE=PIVOT (the joint it turns at), e.g. \
+             front-upper-arm=left_shoulder"
         )),
     }
 }

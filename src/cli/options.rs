@@ -181,7 +181,9 @@ impl ExportArgs {
             skeleton: self.skeleton.map(|path| app::UserSkeleton {
                 path,
                 animation: self.animation,
-                bones: self.bone.into_iter().collect(),
+                bones: self.bone,
+                bone_map: self.bone_map,
+                keep_ik: self.keep_ik,
             }),
         }
     }

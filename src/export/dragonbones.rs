@@ -3,8 +3,8 @@
 //! **Axes.** DragonBones is y down, in px, rotations in degrees clockwise: the screen's axes, so
 //! only the origin moves, to the floor point ([`Animation::floor_origin`]).
 //!
-//! **Bones** as in [`super::spine`]: one per joint, named after it ([`super::spine::bone_names`]),
-//! a root joint's at the joint, any other's from its parent joint towards it (`length` = the
+//! **Bones** as in [`super::spine`]: one per joint, named by its pivot
+//! ([`super::spine::bone_names`]), a root joint's at the joint, any other's from its parent joint towards it (`length` = the
 //! bone's length on the first frame), its parent the parent joint's bone; an extra `root` bone
 //! when there are several root joints; parents listed first. Bones do not inherit scale
 //! (`inheritScale: false`): DragonBones then moves a child by its parent's full matrix (so a
@@ -18,7 +18,10 @@
 //! (`duration` in frames; the last lasts to the end: the animation's `duration` is the frame
 //! count), linear (`tweenEasing` 0; the last key holds), values relative to the bone's setup
 //! transform (the first frame): `translateFrame` (px) on the root joints' bones, `rotateFrame`
-//! (degrees, continuous) and `scaleFrame` (x = length / setup length) on the others.
+//! (degrees, continuous) and `scaleFrame` (x = length / setup length) on the others. Foot
+//! contacts ([`super::contacts`]) become the animation's `frame` list: each event frame lasts
+//! `duration` frames and holds `events` named `contact_start` / `contact_end`, the foot joint's
+//! name in `strings`.
 //!
 //! **Skin.** One slot (named after the image) holding one weighted mesh display, the same mesh
 //! as the Spine export's ([`SkinMesh`]): vertices in armature px at the setup pose, each bound to
@@ -26,6 +29,7 @@
 //! region of the texture atlas [`texture_atlas`] writes (`_tex.json`), whose image (`_tex.png`)
 //! is the character image copied beside it by `mocap2d export`.
 
+use super::contacts::ContactEvent;
 use super::keys::{self, Keys};
 use super::{round, Animation, SkinMesh};
 use serde_json::{json, Map, Value};
@@ -34,8 +38,13 @@ use serde_json::{json, Map, Value};
 pub const NAME: &str = "mocap";
 
 /// The DragonBones JSON text (`_ske.json`) for `anim` with `mesh` as its skin, keyed as `keys`
-/// says (deterministic).
-pub fn to_dragonbones(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
+/// says, with the foot `contacts` as events (deterministic).
+pub fn to_dragonbones(
+    anim: &Animation,
+    mesh: &SkinMesh,
+    keys: Keys,
+    contacts: &[ContactEvent],
+) -> String {
     let sk = &anim.skeleton;
     let origin = anim.floor_origin();
     let series = anim.bone_series();
@@ -215,6 +224,15 @@ pub fn to_dragonbones(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
             hi[k] = hi[k].max(p[k]);
         }
     }
+    let mut animation = json!({
+        "name": NAME,
+        "duration": n,
+        "playTimes": 0,
+        "bone": timelines,
+    });
+    if !contacts.is_empty() {
+        animation["frame"] = Value::Array(event_frames(anim, contacts));
+    }
     let doc = json!({
         "frameRate": anim.fps,
         "name": NAME,
@@ -233,12 +251,7 @@ pub fn to_dragonbones(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
             "bone": bones,
             "slot": [{ "name": mesh.name, "parent": root_bone }],
             "skin": [{ "name": "", "slot": [{ "name": mesh.name, "display": [display] }] }],
-            "animation": [{
-                "name": NAME,
-                "duration": n,
-                "playTimes": 0,
-                "bone": timelines,
-            }],
+            "animation": [animation],
             "defaultActions": [{ "gotoAndPlay": NAME }],
         }],
     });
@@ -246,6 +259,29 @@ pub fn to_dragonbones(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
     let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
     s
+}
+
+/// The animation's `frame` list for `contacts` (sorted by frame): a frame at each event time
+/// holding its events, lasting until the next (the last until the end), after an empty frame
+/// from 0 when the first event comes later.
+fn event_frames(anim: &Animation, contacts: &[ContactEvent]) -> Vec<Value> {
+    let n = anim.frames.len();
+    let mut starts: Vec<usize> = contacts.iter().map(|e| e.t).collect();
+    starts.dedup();
+    let mut frames = Vec::new();
+    if starts.first().is_some_and(|&t| t > 0) {
+        frames.push(json!({ "duration": starts[0] }));
+    }
+    for (i, &t) in starts.iter().enumerate() {
+        let end = starts.get(i + 1).copied().unwrap_or(n);
+        let events: Vec<Value> = contacts
+            .iter()
+            .filter(|e| e.t == t)
+            .map(|e| json!({ "name": e.name(), "strings": [anim.skeleton.names[e.joint]] }))
+            .collect();
+        frames.push(json!({ "duration": end - t, "events": events }));
+    }
+    frames
 }
 
 /// The DragonBones texture atlas JSON (`_tex.json`) for `mesh`: the image `image` (its file
@@ -369,9 +405,10 @@ mod tests {
             hull: 0,
         };
         let doc: Value =
-            serde_json::from_str(&to_dragonbones(&anim, &mesh, Keys::EveryFrame)).unwrap();
+            serde_json::from_str(&to_dragonbones(&anim, &mesh, Keys::EveryFrame, &[])).unwrap();
         let arm = &doc["armature"][0];
-        assert_eq!(arm["bone"][1]["name"], "knee");
+        // Named by the pivot: the hip (a root) to the knee.
+        assert_eq!(arm["bone"][1]["name"], "hip_to_knee");
         assert_eq!(arm["animation"][0]["duration"], 5);
         for t in 0..anim.frames.len() {
             for (j, p) in db_fk(&doc, &anim, t).iter().enumerate() {

@@ -2,7 +2,8 @@
 //! [`dragonbones`] (DragonBones 5.5 `_ske.json` + `_tex.json` + `_tex.png`), [`bvh`] (Biovision
 //! hierarchy, 2D), [`dlc`] (DeepLabCut CSV) and [`json`] (mocap2d's own schema). Spine and
 //! DragonBones write a folder that travels: every file they name is written beside the main
-//! file and named by its file name alone; their keys are reduced by [`keys`].
+//! file and named by its file name alone; their keys are reduced by [`keys`], and the foot
+//! contacts of the retarget become their events ([`contacts`]).
 //!
 //! Each writer is a pure function from plain data to text; `mocap2d export`
 //! ([`crate::app::export`]) reads the run folder, checks it, and writes atomically. Positions come
@@ -15,10 +16,13 @@
 //! the lowest joint, both on the first exported frame; so the character stands on y = 0.
 
 pub mod bvh;
+pub mod contacts;
 pub mod dlc;
 pub mod dragonbones;
 pub mod json;
 pub mod keys;
+pub mod rig_map;
+pub mod rig_pose;
 pub mod skin;
 pub mod spine;
 pub mod spine_rig;

@@ -5,11 +5,14 @@
 //! ([`Animation::floor_origin`]), and a screen angle θ (radians, clockwise, y down) becomes
 //! `−θ` in degrees. [`to_spine_point`] and [`from_spine_point`] are the two directions.
 //!
-//! **Bones.** One Spine bone per joint, named after the joint as a plain identifier ([`bone_names`]:
-//! letters, digits and `_`): a root joint's bone sits at the joint (translate keys); any other
-//! joint's bone starts at its parent joint and points at it (`length` = the bone's length), so
-//! it is the bone that *ends* at the joint. A bone's parent is its parent joint's bone. Several
-//! root joints hang under an extra bone `root` at the origin. Bones are listed parents first.
+//! **Bones.** One Spine bone per joint, named by its pivot as an animator names it
+//! ([`bone_names`], plain identifiers: letters, digits and `_`): a root joint's bone sits at the
+//! joint (translate keys) and is named after it; any other joint's bone starts at its parent
+//! joint (its pivot, where it rotates) and points at the joint (`length` = the bone's length),
+//! named after the pivot (`left_shoulder` for the bone from the shoulder to the elbow), or
+//! `PIVOT_to_JOINT` when several bones pivot there or the pivot is a root (`pelvis_to_chest`,
+//! `pelvis_to_left_hip`). A bone's parent is its parent joint's bone. Several root joints hang
+//! under an extra bone `root` at the origin. Bones are listed parents first.
 //!
 //! **Animation** `mocap`: starts at time 0 on the run's first frame (`time = (frame − first) /
 //! fps`), linear between keys. Each channel (a root's translate, a bone's rotate, a bone's scale)
@@ -22,7 +25,9 @@
 //! is solved against its parent's scale (Spine turns a child by the parent's scaled axes: the
 //! local angle `r` shows as `atan2(sin r, s·cos r)`; we key `r = atan2(s·sin δ, cos δ)` for the
 //! wanted angle δ). On every frame the joints land where `pose.csv` has them (within the key
-//! tolerance).
+//! tolerance). With foot contacts (`retarget/contacts.csv`, [`super::contacts`]) the animation
+//! also has `events`: `contact_start` / `contact_end` at their frames' times, the foot joint's
+//! name as the event's string (both events defined in the skeleton's `events`).
 //!
 //! **Skin.** One slot with one weighted mesh (the target character's image, meshed and skinned as
 //! `mocap2d render` does it, each vertex bound to one bone with weight 1, triangles in drawing
@@ -30,6 +35,7 @@
 //! copied beside the JSON by `mocap2d export` (`skeleton.images` is `./`, for the Spine editor's
 //! data import): the folder holds everything it names and can be moved or zipped.
 
+use super::contacts::{ContactEvent, CONTACT_END, CONTACT_START};
 use super::keys::{self, Keys};
 use super::{round, wrap, Animation, SkinMesh};
 use crate::retarget::P64;
@@ -59,8 +65,8 @@ pub fn to_spine_degrees(angle_rad: f64) -> f64 {
 /// Names of the Spine (and DragonBones) bones: one per joint, plus the extra top bone when there
 /// are several roots.
 pub struct BoneNames {
-    /// `[joint]`: the bone that ends at the joint (for a root: whose origin is the joint), named
-    /// after the joint as a plain identifier.
+    /// `[joint]`: the name of the bone that ends at the joint (for a root: whose origin is the
+    /// joint), named by its pivot (see [`bone_names`]).
     pub of_joint: Vec<String>,
     /// The extra `root` bone's name, when the skeleton has several roots.
     pub top: Option<String>,
@@ -85,9 +91,11 @@ pub fn identifier(name: &str) -> String {
     s
 }
 
-/// The bone names for `anim`'s skeleton: each joint's name as an [`identifier`], made unique
-/// (`_2`, `_3`, ... after a name already taken), and `root` (made unique the same way) on top
-/// when there are several root joints.
+/// The bone names for `anim`'s skeleton, as [`identifier`]s: a root joint's bone is named after
+/// the joint; the bone from joint `p` (its pivot) to joint `c` is named after `p` when `p` is not
+/// a root and `c` is its only child, else `p_to_c`. Names are made unique (`_2`, `_3`, ... after
+/// a name already taken, in joint order), and `root` (made unique the same way) goes on top when
+/// there are several root joints.
 pub fn bone_names(anim: &Animation) -> BoneNames {
     let sk = &anim.skeleton;
     let mut taken = std::collections::BTreeSet::new();
@@ -101,14 +109,29 @@ pub fn bone_names(anim: &Animation) -> BoneNames {
         taken.insert(n.clone());
         n
     };
-    let of_joint: Vec<String> = sk.names.iter().map(|n| unique(identifier(n))).collect();
+    let of_joint: Vec<String> = (0..sk.len())
+        .map(|c| {
+            unique(identifier(&match sk.parent(c) {
+                None => sk.names[c].clone(),
+                Some(p) if sk.parent(p).is_some() && sk.children(p).len() == 1 => {
+                    sk.names[p].clone()
+                }
+                Some(p) => format!("{}_to_{}", sk.names[p], sk.names[c]),
+            }))
+        })
+        .collect();
     let top = (sk.roots().len() > 1).then(|| unique("root".into()));
     BoneNames { of_joint, top }
 }
 
-/// The Spine skeleton JSON for `anim` with `mesh` as its skin, keyed as `keys` says (text,
-/// deterministic).
-pub fn to_spine(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
+/// The Spine skeleton JSON for `anim` with `mesh` as its skin, keyed as `keys` says, with the
+/// foot `contacts` as events (text, deterministic).
+pub fn to_spine(
+    anim: &Animation,
+    mesh: &SkinMesh,
+    keys: Keys,
+    contacts: &[ContactEvent],
+) -> String {
     let sk = &anim.skeleton;
     let origin = anim.floor_origin();
     let series = anim.bone_series();
@@ -268,7 +291,16 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
         None => "./".into(),
     };
 
-    let doc = json!({
+    let mut animation = Map::new();
+    animation.insert("bones".into(), Value::Object(timelines));
+    if !contacts.is_empty() {
+        let events: Vec<Value> = contacts
+            .iter()
+            .map(|e| json!({ "time": time(e.t), "name": e.name(), "string": sk.names[e.joint] }))
+            .collect();
+        animation.insert("events".into(), Value::Array(events));
+    }
+    let mut doc = json!({
         "skeleton": {
             "spine": SPINE_VERSION,
             "x": round(lo[0], 2),
@@ -284,8 +316,11 @@ pub fn to_spine(anim: &Animation, mesh: &SkinMesh, keys: Keys) -> String {
             "name": "default",
             "attachments": { (mesh.name.clone()): { (mesh.name.clone()): attachment } },
         }],
-        "animations": { ANIMATION: { "bones": timelines } },
+        "animations": { ANIMATION: animation },
     });
+    if !contacts.is_empty() {
+        doc["events"] = json!({ CONTACT_START: {}, CONTACT_END: {} });
+    }
     // Cannot fail: the document is plain JSON values (no maps with non-string keys).
     let mut s = serde_json::to_string(&doc).expect("JSON values");
     s.push('\n');
@@ -399,13 +434,13 @@ mod tests {
     fn bone_names_are_plain_unique_identifiers() {
         let anim = Animation {
             skeleton: Skeleton::new(
-                ["hip", "knee.L", "knee-L", "2nd", "root"]
+                ["hip", "knee.L", "knee-L", "2nd", "root", "toe"]
                     .map(String::from)
                     .to_vec(),
-                vec![None, Some(0), Some(0), Some(0), None],
+                vec![None, Some(0), Some(0), Some(0), None, Some(1)],
             ),
             frames: vec![0],
-            joints: vec![vec![[0.0; 2]; 5]],
+            joints: vec![vec![[0.0; 2]; 6]],
             fps: 30.0,
             width: 10,
             height: 10,
@@ -413,7 +448,15 @@ mod tests {
         let n = bone_names(&anim);
         assert_eq!(
             n.of_joint,
-            vec!["hip", "knee_L", "knee_L_2", "_2nd", "root"]
+            vec![
+                "hip",
+                "hip_to_knee_L",
+                "hip_to_knee_L_2",
+                "hip_to_2nd",
+                "root",
+                // The knee's only bone, named for the knee, where it turns.
+                "knee_L"
+            ]
         );
         assert_eq!(n.top.as_deref(), Some("root_2"));
     }
@@ -464,9 +507,12 @@ mod tests {
             triangles: vec![],
             hull: 0,
         };
-        let doc: Value = serde_json::from_str(&to_spine(&anim, &mesh, Keys::EveryFrame)).unwrap();
+        let doc: Value =
+            serde_json::from_str(&to_spine(&anim, &mesh, Keys::EveryFrame, &[])).unwrap();
         assert_eq!(doc["bones"][0]["name"], "root");
-        assert_eq!(doc["bones"][2]["name"], "knee");
+        // Bones are named by their pivot: hip (a root) to knee, then the knee's two bones.
+        assert_eq!(doc["bones"][2]["name"], "hip_to_knee");
+        assert_eq!(doc["bones"][3]["name"], "knee_to_foot");
         // The clock starts at the first frame (frame 10), whatever its index.
         let hip = &doc["animations"][ANIMATION]["bones"]["hip"]["translate"];
         assert_eq!(hip[0]["time"], 0.0);

@@ -242,13 +242,43 @@ fn spine_folder_moved_elsewhere_loads_and_poses_every_joint_where_pose_csv_has_i
     assert_eq!(r["animation"], "mocap");
     assert_eq!(r["images"], "./");
     assert_eq!(r["pages"][0]["name"], "robot.png");
-    // Bone names are plain identifiers: the joints' names.
-    for b in r["bones"].as_array().unwrap() {
-        let n = b["name"].as_str().unwrap();
+    // Bone names are plain identifiers, named by their pivot: `elbow_l` is the forearm, turning
+    // at the elbow; the chest's several bones are `chest_to_...`.
+    let names: Vec<&str> = r["bones"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["name"].as_str().unwrap())
+        .collect();
+    for n in &names {
         assert!(
             n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'),
             "{n}"
         );
+    }
+    for n in [
+        "pelvis",
+        "pelvis_to_chest",
+        "chest_to_neck",
+        "chest_to_elbow_l",
+        "elbow_l",
+        "knee_l",
+        "ankle_l",
+    ] {
+        assert!(names.contains(&n), "{n} not in {names:?}");
+    }
+    let forearm = r["bones"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|b| b["name"] == "elbow_l")
+        .unwrap();
+    let elbow = anim.skeleton.index_of("elbow_l").unwrap();
+    for t in 0..anim.frames.len() {
+        let f = |k: &str| forearm[k][t].as_f64().unwrap();
+        let p = export::spine::from_spine_point([f("x"), f("y")], anim.floor_origin());
+        let want = anim.joints[t][elbow];
+        assert!((p[0] - want[0]).hypot(p[1] - want[1]) < 0.5, "frame {t}");
     }
     // The animation lasts from the seed frame (time 0) to the last frame.
     let duration = r["duration"].as_f64().unwrap();
@@ -973,24 +1003,37 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
         "--bone",
         "hips=pelvis",
         "--bone",
-        "torso=chest",
+        "torso=pelvis>chest",
         "--bone",
-        "upper_arm_l=elbow_l",
+        "upper_arm_l=chest>elbow_l",
         "--bone",
-        "forearm_l=wrist_l",
+        "forearm_l=elbow_l",
         "--bone",
-        "leg=knee_l",
+        "leg=pelvis>knee_l",
+        "--bone",
+        "head=neck",
         "--every-frame",
         "--out",
         s(&out),
     ]);
     ok(&o);
     let err = String::from_utf8_lossy(&o.stderr);
+    // Each bone names the joint it turns at; the mapping is printed and written beside --out.
     assert!(
-        err.contains("upper_arm_l <- chest -> elbow_l (rotate)")
-            && err.contains("head <- neck -> head (rotate)")
+        err.contains("upper_arm_l = chest>elbow_l (rotate, by --bone)")
+            && err.contains("forearm_l = elbow_l (rotate, by --bone)")
+            && err.contains("head = neck (rotate, by --bone)")
+            && err.contains("hips = pelvis (translate")
             && err.contains("left in their setup pose: root, cape"),
         "{err}"
+    );
+    let map = rig.join("hero-mocap.bones.toml");
+    let map_text = std::fs::read_to_string(&map).unwrap();
+    assert!(
+        map_text.contains("\n[bones]\n")
+            && map_text.contains("\"forearm_l\" = \"elbow_l\"\n")
+            && map_text.contains("\"torso\" = \"pelvis>chest\"\n"),
+        "{map_text}"
     );
     // Only the new animation is added: every other byte of their file is as it was.
     let text = std::fs::read_to_string(&out).unwrap();
@@ -1082,6 +1125,27 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
     assert!((dx - want).abs() < 1e-3, "{dx} vs {want}");
     assert!(want.abs() > 1.0, "the walk moves: {want}");
 
+    // The written mapping passed back gives the same export, and writes no mapping over it.
+    let again = rig.join("again.json");
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "spine",
+        "--skeleton",
+        s(&theirs),
+        "--animation",
+        "dance",
+        "--bone-map",
+        s(&map),
+        "--every-frame",
+        "--out",
+        s(&again),
+    ]));
+    assert_eq!(std::fs::read_to_string(&again).unwrap(), text);
+    assert!(!rig.join("again.bones.toml").exists());
+    assert_eq!(std::fs::read_to_string(&map).unwrap(), map_text);
+
     // Bad matches: exit 2, naming what there is.
     let bad = |extra: &[&str], needles: &[&str]| {
         let mut args = vec![
@@ -1112,8 +1176,337 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
         &["--bone", "torso=spine"],
         &["no joint \"spine\"", "elbow_l"],
     );
+    // The old end-joint form, a pivot with several bones, a bone given twice.
+    bad(
+        &["--bone", "forearm_l=wrist_l"],
+        &["wrist_l is the end of a bone", "forearm_l=elbow_l"],
+    );
+    bad(
+        &["--bone", "torso=chest"],
+        &["several bones turn at chest", "torso=chest>JOINT"],
+    );
+    bad(
+        &["--bone", "head=neck", "--bone", "head=chest>neck"],
+        &["--bone given twice for bone \"head\""],
+    );
     std::fs::write(&theirs, THEIR_SKELETON.replace("\"head\"", "\"skull\"")).unwrap();
     bad(&[], &["no bone matches", "skull", "pelvis"]);
     std::fs::write(&theirs, THEIR_SKELETON.replace("4.2.22", "3.8.99")).unwrap();
     bad(&["--bone", "torso=chest"], &["Spine 3.8.99", "4.2"]);
+}
+
+/// A stand-in atlas for `skeleton` (Spine JSON): every region and mesh attachment it names, as
+/// one-pixel regions of `page.png` (written beside it), so spine-core can load it without the
+/// images.
+fn stand_in_atlas(skeleton: &Path) -> PathBuf {
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(skeleton).unwrap()).unwrap();
+    let mut regions = std::collections::BTreeSet::new();
+    for skin in doc["skins"].as_array().unwrap() {
+        for atts in skin["attachments"].as_object().unwrap().values() {
+            for (name, a) in atts.as_object().unwrap() {
+                let ty = a["type"].as_str().unwrap_or("region");
+                if ty == "region" || ty == "mesh" || ty == "linkedmesh" {
+                    regions.insert(a["path"].as_str().unwrap_or(name).to_owned());
+                }
+            }
+        }
+    }
+    let dir = skeleton.parent().unwrap();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([0, 0, 0, 255]))
+        .save(dir.join("page.png"))
+        .unwrap();
+    let mut text = "page.png\nsize:2,2\nfilter:Linear,Linear\n".to_owned();
+    for r in regions {
+        writeln!(text, "{r}\nbounds:0,0,1,1").unwrap();
+    }
+    let atlas = skeleton.with_extension("atlas");
+    std::fs::write(&atlas, text).unwrap();
+    atlas
+}
+
+/// Spine's own spineboy (a side-view rig with leg IK), under a front-view walk retargeted onto
+/// the dancer, with no `--bone`: its bones map by structure (printed, and written as a file),
+/// the leg IK is keyed off and said so, the side view is warned about, the file is unchanged
+/// but for the animation, spine-core 4.2 loads it and its legs follow the motion; with
+/// `--keep-ik` the IK targets carry the legs to the same places.
+#[test]
+fn spineboy_maps_by_structure_with_no_bone_flag_and_its_legs_follow() {
+    let d = tempfile::tempdir().unwrap();
+    let run = run_from_gt(d.path(), &clip(Scenario::Walk, 30));
+    let target = root().join("configs/characters/dancer.toml");
+    ok(&mocap2d(&["retarget", s(&run), "--target", s(&target)]));
+    let anim = animation(&run);
+    let rig = d.path().join("rig");
+    std::fs::create_dir_all(&rig).unwrap();
+    let theirs = rig.join("spineboy-pro.json");
+    let original =
+        std::fs::read_to_string(root().join("tests/it/data/spineboy/spineboy-pro.json")).unwrap();
+    std::fs::write(&theirs, &original).unwrap();
+    let atlas = stand_in_atlas(&theirs);
+    let export = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "export",
+            s(&run),
+            "--format",
+            "spine",
+            "--skeleton",
+            s(&theirs),
+            "--out",
+            s(out),
+        ];
+        args.extend(extra);
+        let o = mocap2d(&args);
+        ok(&o);
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let out = rig.join("spineboy-mocap.json");
+    let err = export(&out, &[]);
+    eprintln!("{err}");
+    for line in [
+        "front-upper-arm = left_shoulder (rotate, by structure)",
+        "front-bracer = left_elbow (rotate, by structure)",
+        "rear-upper-arm = right_shoulder (rotate, by structure)",
+        "rear-bracer = right_elbow (rotate, by structure)",
+        "front-thigh = left_hip (rotate, by structure)",
+        "front-shin = left_knee (rotate, by structure)",
+        "rear-thigh = right_hip (rotate, by structure)",
+        "rear-shin = right_knee (rotate, by structure)",
+        "hip = pelvis (translate",
+        "torso = pelvis>chest (rotate, by structure)",
+        "neck = chest>neck (rotate, by structure)",
+        "head = neck (rotate, by structure)",
+        "IK constraints over mapped bones (aim-ik, front-leg-ik, rear-leg-ik): their mix is \
+         keyed to 0",
+        "looks drawn from the side",
+    ] {
+        assert!(err.contains(line), "{line:?} not in {err}");
+    }
+    let map = rig.join("spineboy-mocap.bones.toml");
+    let map_text = std::fs::read_to_string(&map).unwrap();
+    assert!(
+        map_text.contains("\"front-upper-arm\" = \"left_shoulder\"\n"),
+        "{map_text}"
+    );
+
+    // Every byte but the animation's is theirs.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let at = original.find("\"animations\": {").unwrap() + "\"animations\": {".len();
+    assert!(text.starts_with(&original[..at]));
+    assert!(text.ends_with(&original[at..]));
+    let added: Value = serde_json::from_str(&text).unwrap();
+    let added = &added["animations"]["mocap"];
+    assert_eq!(
+        text.len(),
+        original.len() + "\"mocap\":".len() + added.to_string().len() + 1
+    );
+    assert_eq!(added["ik"]["front-leg-ik"][0]["mix"], 0);
+    assert_eq!(added["ik"]["front-leg-ik"][0]["bendPositive"], false);
+    // Again: the same bytes, and the mapping file (perhaps edited since) is not written over.
+    std::fs::write(&map, format!("{map_text}# edited\n")).unwrap();
+    let err = export(&out, &[]);
+    assert!(err.contains("exists and is left as it is"), "{err}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), text);
+    assert_eq!(
+        std::fs::read_to_string(&map).unwrap(),
+        format!("{map_text}# edited\n")
+    );
+
+    // spine-core 4.2 loads it; the legs turn with the dancer's legs since the first frame.
+    let ts: Vec<String> = times(&anim).iter().map(|t| t.to_string()).collect();
+    let pose = |file: &Path| -> Option<Value> {
+        node(
+            "spine_pose.mjs",
+            "@esotericsoftware/spine-core",
+            &[s(file), s(&atlas), &ts.join(","), "mocap"],
+        )
+        .map(|r| serde_json::from_str(&r).unwrap())
+    };
+    let Some(r) = pose(&out) else {
+        return;
+    };
+    assert!(r["version"].as_str().unwrap().starts_with("4.2"));
+    let bones = r["bones"].as_array().unwrap().clone();
+    let bone = |n: &str| bones.iter().find(|b| b["name"] == n).unwrap().clone();
+    let angle = |b: &Value, t: usize| -> f64 {
+        let f = |k: &str| b[k][t].as_f64().unwrap();
+        (f("tipY") - f("y")).atan2(f("tipX") - f("x")).to_degrees()
+    };
+    let series = anim.bone_series();
+    let turn = |t: usize, j: &str| {
+        let b = series
+            .ending_at(anim.skeleton.index_of(j).unwrap())
+            .unwrap();
+        -(series.angle[t][b] - series.angle[0][b]).to_degrees()
+    };
+    let wrap = |a: f64| (a + 540.0).rem_euclid(360.0) - 180.0;
+    // Within the key tolerance (0.5 degrees) per keyed bone on the way: the thighs hang from
+    // the hip (translated only), a shin from its thigh, an upper arm from the torso.
+    for (theirs, end, tolerance) in [
+        ("front-thigh", "left_knee", 0.5),
+        ("rear-thigh", "right_knee", 0.5),
+        ("front-shin", "left_ankle", 1.0),
+        ("rear-shin", "right_ankle", 1.0),
+        ("front-upper-arm", "left_elbow", 1.0),
+    ] {
+        let b = bone(theirs);
+        let (mut worst, mut moved) = (0.0f64, 0.0f64);
+        for t in 0..anim.frames.len() {
+            let got = wrap(angle(&b, t) - angle(&b, 0));
+            worst = worst.max(wrap(got - turn(t, end)).abs());
+            moved = moved.max(got.abs());
+        }
+        eprintln!("spineboy {theirs}: turns up to {moved:.1} deg, off by {worst:.3} deg");
+        assert!(worst < tolerance + 0.01, "{theirs}: off by {worst} degrees");
+        assert!(moved > 5.0, "{theirs}: turns only {moved} degrees");
+    }
+
+    // --keep-ik: the IK stays and its targets move: the shins end where they do with mix 0
+    // (both keyed on every frame, so that only the IK differs).
+    let every = rig.join("every.json");
+    export(&every, &["--every-frame"]);
+    let r = pose(&every).unwrap();
+    let bones = r["bones"].as_array().unwrap().clone();
+    let bone = |n: &str| bones.iter().find(|b| b["name"] == n).unwrap().clone();
+    let kept = rig.join("kept.json");
+    let err = export(&kept, &["--keep-ik", "--every-frame"]);
+    assert!(err.contains("IK constraint front-leg-ik kept"), "{err}");
+    let k: Value = serde_json::from_str(&std::fs::read_to_string(&kept).unwrap()).unwrap();
+    assert!(k["animations"]["mocap"].get("ik").is_none());
+    assert!(k["animations"]["mocap"]["bones"]["front-leg-target"]["translate"].is_array());
+    let r2 = pose(&kept).unwrap();
+    let bones2 = r2["bones"].as_array().unwrap();
+    let mut worst = 0.0f64;
+    for shin in ["front-shin", "rear-shin"] {
+        let (a, b) = (
+            bone(shin),
+            bones2.iter().find(|b| b["name"] == shin).unwrap(),
+        );
+        for t in 0..anim.frames.len() {
+            let f = |v: &Value, k: &str| v[k][t].as_f64().unwrap();
+            worst = worst.max((f(&a, "tipX") - f(b, "tipX")).hypot(f(&a, "tipY") - f(b, "tipY")));
+        }
+    }
+    eprintln!("spineboy --keep-ik: shin tips within {worst:.4} px of the mix-0 export");
+    assert!(worst < 0.05, "{worst} px");
+}
+
+/// `retarget/contacts.csv` (foot contacts) becomes `contact_start` / `contact_end` events that
+/// the Spine and DragonBones runtimes read and fire at the contacts' frames.
+#[test]
+fn contacts_become_events_in_spine_and_dragonbones() {
+    let d = tempfile::tempdir().unwrap();
+    let (run, anim, _) = retargeted_walk(d.path());
+    // ankle_l planted on frames +0..+4 and +20..+29, ankle_r on +10..+17.
+    let mut csv = "frame,joint,contact\n".to_owned();
+    for (i, &f) in anim.frames.iter().enumerate() {
+        let l = i < 5 || (20..30).contains(&i);
+        let r = (10..18).contains(&i);
+        writeln!(csv, "{f},ankle_l,{}\n{f},ankle_r,{}", l as u8, r as u8).unwrap();
+    }
+    std::fs::write(run.join("retarget/contacts.csv"), &csv).unwrap();
+    let t = |i: u64| ((i as f64) / anim.fps * 1e6).round() / 1e6;
+    let want = [
+        (t(0), "contact_start", "ankle_l"),
+        (t(5), "contact_end", "ankle_l"),
+        (t(10), "contact_start", "ankle_r"),
+        (t(18), "contact_end", "ankle_r"),
+        (t(20), "contact_start", "ankle_l"),
+        (t(30), "contact_end", "ankle_l"),
+    ];
+    assert!(anim.frames.len() > 31);
+
+    let out = d.path().join("spine/robot.json");
+    std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+    let o = mocap2d(&["export", s(&run), "--format", "spine", "--out", s(&out)]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("3 contact starts and 3 ends as events"),
+        "{err}"
+    );
+    let db_out = d.path().join("db/robot_ske.json");
+    std::fs::create_dir_all(db_out.parent().unwrap()).unwrap();
+    ok(&mocap2d(&[
+        "export",
+        s(&run),
+        "--format",
+        "dragonbones",
+        "--out",
+        s(&db_out),
+    ]));
+
+    let Some(r) = node(
+        "spine_pose.mjs",
+        "@esotericsoftware/spine-core",
+        &[s(&out), s(&out.with_extension("atlas")), "0"],
+    ) else {
+        return;
+    };
+    let r: Value = serde_json::from_str(&r).unwrap();
+    assert_eq!(
+        r["eventNames"],
+        serde_json::json!(["contact_end", "contact_start"])
+    );
+    let got: Vec<(f64, String, String)> = r["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["time"].as_f64().unwrap(),
+                e["name"].as_str().unwrap().to_owned(),
+                e["string"].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect();
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (g, w) in got.iter().zip(&want) {
+        assert!(
+            (g.0 - w.0).abs() < 1e-4 && g.1 == w.1 && g.2 == w.2,
+            "{got:?}"
+        );
+    }
+
+    let r = node(
+        "dragonbones_pose.mjs",
+        "@cocos/dragonbones-js",
+        &[s(&db_out), "0"],
+    )
+    .unwrap();
+    let r: Value = serde_json::from_str(r.lines().last().unwrap()).unwrap();
+    let fired: Vec<(f64, String, String)> = r["events"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["time"].as_f64().unwrap(),
+                e["name"].as_str().unwrap().to_owned(),
+                e["strings"][0].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect();
+    assert_eq!(fired.len(), want.len(), "{fired:?}");
+    for (g, w) in fired.iter().zip(&want) {
+        assert!(
+            (g.0 - w.0).abs() < 1e-3 && g.1 == w.1 && g.2 == w.2,
+            "{fired:?}"
+        );
+    }
+
+    // A bad row: exit 2, the file and line named, nothing written.
+    std::fs::write(
+        run.join("retarget/contacts.csv"),
+        csv.replacen("ankle_r", "ankle_x", 1),
+    )
+    .unwrap();
+    let bad = d.path().join("spine/bad.json");
+    let o = mocap2d(&["export", s(&run), "--format", "spine", "--out", s(&bad)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("contacts.csv") && err.contains("line 3: joint \"ankle_x\""),
+        "{err}"
+    );
+    assert!(!bad.exists());
 }

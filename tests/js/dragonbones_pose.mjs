@@ -4,7 +4,9 @@
 // and prints, as JSON on the last line of stdout (the runtime prints a banner first), every bone's world position (origin and tip = its local
 // (length, 0)) at each time. With TEX.json, the texture atlas is parsed too (its image must be a
 // PNG beside it), every mesh display must find its texture in it, and each mesh's world vertices
-// at each time are printed (weighted meshes deformed as the runtime's renderers do it).
+// at each time are printed (weighted meshes deformed as the runtime's renderers do it). Last, the
+// animation is played once through, frame by frame, and the frame events it fires are printed
+// (name, time, strings).
 // Usage: node dragonbones_pose.mjs SKE.json T1,T2,... [TEX.json]
 import { existsSync, readFileSync } from "node:fs";
 import { dirname, isAbsolute, join } from "node:path";
@@ -180,4 +182,18 @@ out.bonesYDown = down.bones;
 out.bonesYUp = up.bones;
 out.verticesYDown = down.vertices;
 out.verticesYUp = up.vertices;
+// Played once from the start, a frame at a time: the frame events the runtime fires.
+const fired = [];
+const dispatcher = armature.eventDispatcher;
+dispatcher.hasDBEventListener = (type) => type === db.EventObject.FRAME_EVENT;
+dispatcher.dispatchDBEvent = (type, e) => {
+  if (type === db.EventObject.FRAME_EVENT) fired.push({ name: e.name, time: e.time, strings: e.data ? Array.from(e.data.strings) : [] });
+};
+// As an engine runs it: the armature on the world clock, whose advanceTime dispatches the events
+// the animation buffered.
+factory.clock.add(armature);
+armature.animation.play(name, 1);
+const steps = Math.ceil(out.duration * data.frameRate) + 2;
+for (let i = 0; i < steps; i++) factory._dragonBones.advanceTime(1 / data.frameRate);
+out.events = fired;
 process.stdout.write("\n" + JSON.stringify(out) + "\n");

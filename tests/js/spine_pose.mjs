@@ -2,7 +2,8 @@
 // SkeletonJson and AtlasAttachmentLoader; no textures are needed to pose a skeleton, but every
 // atlas page must be an image file found beside the atlas), applies the animation ANIMATION (by
 // default the only one) at each given time and prints, as JSON on stdout, every bone's world
-// position (origin and tip = its local (length, 0)) and the skin's world vertices at each time.
+// position (origin and tip = its local (length, 0)) and the skin's world vertices at each time,
+// and the animation's events (time, name, string) with the event names the skeleton defines.
 // Usage: node spine_pose.mjs SKELETON.json SKELETON.atlas T1,T2,... [ANIMATION]
 import { existsSync, readFileSync, statSync } from "node:fs";
 import { dirname, isAbsolute, join } from "node:path";
@@ -79,4 +80,8 @@ for (const slot of skeleton.slots) {
     region: a && a.region ? a.region.name : null,
   });
 }
+out.eventNames = data.events.map((e) => e.name);
+out.events = animation.timelines
+  .filter((t) => t instanceof spine.EventTimeline)
+  .flatMap((t) => t.events.map((e) => ({ time: e.time, name: e.data.name, string: e.stringValue })));
 process.stdout.write(JSON.stringify(out));
