@@ -1,5 +1,7 @@
-//! The motion between tracks and character (docs/method.md §4.5, §5.8): the clean-up drops a
-//! jump and marks it `filled`; `render` names the frames whose mesh folds or cracks.
+//! The motion between tracks and character (docs/method.md §4.5, §4.6, §5.8): the clean-up
+//! drops a jump and marks it `filled`; feet on the ground are found on every stance of the
+//! synthetic walk and held within a pixel; the deformed characters neither fold nor crack over a
+//! walk and over the real dance's labels.
 
 use crate::common::{self, characters, run as mocap2d, s, synth_clip};
 use mocap2d::app::{self, Renderer};
@@ -79,6 +81,111 @@ fn the_clean_up_drops_a_jump_marks_it_filled_and_the_character_does_not_follow()
     );
     let toml = std::fs::read_to_string(run.join("retarget/retarget.toml")).unwrap();
     assert!(toml.contains("clean = 0"), "{toml}");
+}
+
+/// `[frame]`: whether the source's foot on `side` (0 left, 1 right) is the lower one: the
+/// synthetic walk stands its lower foot on the floor (src/synth/motion.rs, `place_roots`).
+fn stance(c: &SynthClip, side: usize) -> Vec<bool> {
+    let idx = |n: &str| c.joint_names.iter().position(|j| j == n).unwrap();
+    let sole = |f: &[(f32, f32)], s: usize| {
+        let (a, t) = if s == 0 {
+            (idx("ankle_l"), idx("toe_l"))
+        } else {
+            (idx("ankle_r"), idx("toe_r"))
+        };
+        f[a].1.max(f[t].1)
+    };
+    c.gt.iter()
+        .map(|f| sole(f, side) > sole(f, 1 - side))
+        .collect()
+}
+
+/// Runs of `true`: `(first, last)` frames.
+fn runs(v: &[bool]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut t = 0;
+    while t < v.len() {
+        if v[t] {
+            let a = t;
+            while t < v.len() && v[t] {
+                t += 1;
+            }
+            out.push((a, t - 1));
+        } else {
+            t += 1;
+        }
+    }
+    out
+}
+
+#[test]
+fn contacts_are_found_on_every_stance_of_the_walk_and_planted_feet_hold_within_a_pixel() {
+    let d = tempfile::tempdir().unwrap();
+    let c = walk(150);
+    let run = common::run_from_gt(d.path(), &c, 0, |_, _| 1.0);
+    let robot = characters("robot.toml");
+    let drift = |plant: bool| {
+        let mut args = vec!["retarget", s(&run), "--target", s(&robot)];
+        if !plant {
+            args.push("--no-plant");
+        }
+        let o = mocap2d(&args);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        assert!(err.contains("contacts: ankle_l on the ground"), "{err}");
+        let text = std::fs::read_to_string(run.join("retarget/contacts.csv")).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some("frame,joint,contact"));
+        let mut contact: BTreeMap<String, Vec<bool>> = BTreeMap::new();
+        for (i, l) in lines.enumerate() {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f[0], (i / 2).to_string(), "{l}");
+            assert!(f[2] == "0" || f[2] == "1", "{l}");
+            contact.entry(f[1].into()).or_default().push(f[2] == "1");
+        }
+        assert_eq!(contact.keys().collect::<Vec<_>>(), ["ankle_l", "ankle_r"]);
+        let (names, joints) = pose(&run, &robot);
+        let mut worst: f64 = 0.0;
+        for (side, foot) in ["ankle_l", "ankle_r"].iter().enumerate() {
+            let on = &contact[*foot];
+            assert_eq!(on.len(), 150);
+            let j = names.iter().position(|n| n == foot).unwrap();
+            // Every stance of 8 frames or more is found, over half its frames at least, and
+            // contacts fall within a stance (two frames' slack at each end: the heel comes off
+            // slowly after the other foot is lower).
+            let truth = stance(&c, side);
+            let stances: Vec<_> = runs(&truth)
+                .into_iter()
+                .filter(|r| r.1 - r.0 >= 7)
+                .collect();
+            assert!(stances.len() >= 3, "{foot}: {stances:?}");
+            for &(a, b) in &stances {
+                let found = (a..=b).filter(|&t| on[t]).count();
+                assert!(
+                    2 * found >= b - a + 1,
+                    "{foot}: stance {a}-{b}: on the ground on {found} frames"
+                );
+            }
+            for (a, b) in runs(on) {
+                let outside = (a..=b)
+                    .filter(|&t| !truth[t.saturating_sub(2)..=(t + 2).min(149)].contains(&true))
+                    .count();
+                assert_eq!(outside, 0, "{foot}: contact {a}-{b} off a stance");
+                for t in a..=b {
+                    let (p, q) = (joints[t][j], joints[a][j]);
+                    worst = worst.max((p[0] - q[0]).hypot(p[1] - q[1]));
+                }
+            }
+        }
+        worst
+    };
+    let planted = drift(true);
+    assert!(planted <= 1.0, "a planted foot drifts {planted} px");
+    let free = drift(false);
+    assert!(
+        free > 1.0,
+        "unplanted feet drift only {free} px: the test shows nothing"
+    );
 }
 
 /// The number of frames of `run`'s retargeted pose whose deformed mesh of `target` has a folded
