@@ -296,6 +296,13 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 eprintln!("  {line}");
             }
             eprintln!(
+                "clean-up: {} tracked points dropped as jumps and filled (`filled` in clean.csv)",
+                s.dropped
+            );
+            for (foot, on) in &s.contacts {
+                eprintln!("contacts: {foot} on the ground {on} of {} frames", s.frames);
+            }
+            eprintln!(
                 "retargeted {} joints over {} frames (scale {:.3} px per image px) -> {}",
                 s.joints,
                 s.frames,
@@ -319,6 +326,12 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
                 s.joint_vertices,
                 to.join(" and ")
             );
+            if let Some(f) = s.defect_frames.first() {
+                eprintln!(
+                    "warning: {} frames show a folded or cracked triangle (first: frame {f})",
+                    s.defect_frames.len()
+                );
+            }
         }
         Command::Export(a) => {
             let format = a.format;

@@ -36,6 +36,8 @@ pub struct RenderSummary {
     pub vertices: usize,
     pub triangles: usize,
     pub joint_vertices: usize,
+    /// Frames whose mesh has a folded or cracked triangle (docs/method.md §5.8).
+    pub defect_frames: Vec<u64>,
 }
 
 /// `mocap2d render`: deforms the target character along `RUN/retarget/pose.csv` and writes the
@@ -91,6 +93,7 @@ pub fn render(opts: &RenderOptions, progress: &dyn Progress) -> Result<RenderSum
 
     // Everything checked: write.
     let mut written: Vec<PathBuf> = Vec::new();
+    let mut defect_frames: Vec<u64> = Vec::new();
     let created_dir = opts.frames_dir.as_ref().filter(|d| !d.exists()).cloned();
     let result = (|| -> Result<()> {
         if let Some(d) = &opts.frames_dir {
@@ -101,7 +104,7 @@ pub fn render(opts: &RenderOptions, progress: &dyn Progress) -> Result<RenderSum
         for (chunk_frames, chunk_joints) in
             frames.chunks(BATCH_FRAMES).zip(joints.chunks(BATCH_FRAMES))
         {
-            type Drawn = (RgbaImage, Option<Result<Vec<u8>>>);
+            type Drawn = (RgbaImage, Option<Result<Vec<u8>>>, bool);
             let drawn: Vec<Drawn> = chunk_joints
                 .par_iter()
                 .map(|j| {
@@ -109,15 +112,18 @@ pub fn render(opts: &RenderOptions, progress: &dyn Progress) -> Result<RenderSum
                         .iter()
                         .map(|p| Point::new(p[0] as f32, p[1] as f32))
                         .collect();
-                    let img = renderer.frame(&pts);
+                    let (img, defects) = renderer.frame_checked(&pts);
                     let png = opts
                         .frames_dir
                         .as_ref()
                         .map(|_| encode_png(&img, transparent));
-                    (img, png)
+                    (img, png, !defects.is_clean())
                 })
                 .collect();
-            for (&f, (img, png)) in chunk_frames.iter().zip(drawn) {
+            for (&f, (img, png, bad)) in chunk_frames.iter().zip(drawn) {
+                if bad {
+                    defect_frames.push(f);
+                }
                 if let (Some(d), Some(png)) = (&opts.frames_dir, png) {
                     let p = d.join(format!("{f:06}.png"));
                     crate::atomic::write(&p, &png?)?;
@@ -147,6 +153,7 @@ pub fn render(opts: &RenderOptions, progress: &dyn Progress) -> Result<RenderSum
         vertices: renderer.rig.mesh.rest.len(),
         triangles: renderer.rig.mesh.triangles.len(),
         joint_vertices: renderer.rig.joint_vertex_count(),
+        defect_frames,
     })
 }
 

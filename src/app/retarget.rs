@@ -22,10 +22,14 @@ pub struct RetargetSummary {
     /// Which source joints drive which target bone, one line each
     /// ([`retarget::mapping::Mapping::describe`]).
     pub mapping: Vec<String>,
+    /// Points the clean-up dropped as jumps and filled.
+    pub dropped: usize,
+    /// `(foot joint, frames on the ground)` of each foot.
+    pub contacts: Vec<(String, usize)>,
 }
 
 /// `mocap2d retarget RUN --target CHARACTER`: writes `RUN/retarget/` (pose.csv, bones.csv,
-/// retarget.toml; see [`files`]).
+/// clean.csv, contacts.csv, retarget.toml; see [`files`]).
 pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<RetargetSummary> {
     let character = read_character(target)?;
     let (width, height, fps) = run_frame(run)?;
@@ -34,7 +38,20 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
     let mapping = retarget::mapping::build(&character, &seeds.skeleton, &seeds_path)?;
     let tracks_path = run.join("tracks.csv");
     let rows = crate::run::tracks::read_tracks(&tracks_path)?;
-    let motion = retarget::motion_from_tracks(&rows, &seeds.skeleton, &tracks_path)?;
+    let tracked = retarget::motion_from_tracks(&rows, &seeds.skeleton, &tracks_path)?;
+    // Rows are every joint of every frame (checked just above); index them the same way.
+    let n = seeds.skeleton.len();
+    let index = |r: &crate::run::TrackRow| {
+        let t = (r.frame - tracked.frames[0]) as usize;
+        (t, seeds.skeleton.index_of(&r.joint).unwrap_or(0))
+    };
+    let mut fixed = vec![vec![false; n]; tracked.frames.len()];
+    for r in &rows {
+        let (t, j) = index(r);
+        fixed[t][j] = r.status == "seed";
+    }
+    let cleaned = retarget::cleanup::clean(&tracked, &seeds.skeleton, &fixed, options.clean);
+    let motion = &cleaned.motion;
     let placement = retarget::place(
         &character.skeleton,
         &character.rest,
@@ -44,7 +61,7 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         &retarget::reference_lengths(&motion.joints, &mapping),
     );
     let rest_out: Vec<retarget::P64> = character.rest.iter().map(|&p| placement.apply(p)).collect();
-    let r = retarget::retarget(&motion, &character.skeleton, &mapping, &rest_out, options);
+    let r = retarget::retarget(motion, &character.skeleton, &mapping, &rest_out, options);
     let names = &character.skeleton.names;
     let manifest = RetargetManifest {
         tool: "mocap2d".into(),
@@ -64,6 +81,9 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
             .cartoon
             .map_or(retarget::DEFAULT_CARTOON_SIGMA, |c| c.sigma_frames),
         keep_size: options.keep_size,
+        clean: options.clean.strength,
+        stretch: options.stretch,
+        plant_feet: options.plant_feet,
     };
     let dir = run.join(RETARGET_DIR);
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
@@ -71,6 +91,14 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
     crate::atomic::write(
         &dir.join("bones.csv"),
         files::bones_csv(&r, names).as_bytes(),
+    )?;
+    crate::atomic::write(
+        &dir.join("clean.csv"),
+        files::clean_csv(&rows, &seeds.skeleton, motion, &cleaned.dropped).as_bytes(),
+    )?;
+    crate::atomic::write(
+        &dir.join("contacts.csv"),
+        retarget::contacts::contacts_csv(&r.frames, names, &r.legs, &r.contact).as_bytes(),
     )?;
     crate::atomic::write(
         &dir.join("retarget.toml"),
@@ -82,6 +110,13 @@ pub fn retarget(run: &Path, target: &Path, options: &RetargetOptions) -> Result<
         joints: names.len(),
         scale: placement.scale,
         mapping: mapping.describe(&character.skeleton, &seeds.skeleton),
+        dropped: cleaned.dropped_count(),
+        contacts: r
+            .legs
+            .iter()
+            .zip(&r.contact)
+            .map(|(l, c)| (names[l.foot].clone(), c.iter().filter(|&&v| v).count()))
+            .collect(),
     })
 }
 

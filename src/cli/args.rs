@@ -188,10 +188,23 @@ pub struct RetargetArgs {
     /// Smooth the tracks first: median:N (N odd frames) or gaussian:S (σ in frames).
     #[arg(long, value_name = "KIND:N")]
     pub smooth: Option<mocap2d::retarget::Smooth>,
-    /// Keep the character's size when the subject moves towards or away from the camera (bone
-    /// lengths follow relative to each other, not the whole body's growing or shrinking).
+    /// Clean-up strength: tracked points that jump as no limb can are dropped and filled, then
+    /// every track goes through a Savitzky–Golay filter of 2N+1 frames; 0 turns it off.
+    #[arg(long, value_name = "N", default_value_t = mocap2d::retarget::cleanup::DEFAULT_STRENGTH,
+          value_parser = parse_clean)]
+    pub clean: usize,
+    /// Bones follow the tracked bones' changes of length (squash and stretch, for a cartoon);
+    /// by default every bone keeps the character's length.
     #[arg(long)]
+    pub stretch: bool,
+    /// With --stretch: keep the character's size when the subject moves towards or away from
+    /// the camera (bone lengths follow relative to each other, not the whole body's growing or
+    /// shrinking).
+    #[arg(long, requires = "stretch")]
     pub keep_size: bool,
+    /// Do not hold the feet still while they are on the ground (contacts.csv is written anyway).
+    #[arg(long)]
+    pub no_plant: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -210,6 +223,16 @@ pub struct RenderArgs {
     /// Needles keep their length when bones stretch (no squash-and-stretch area preservation).
     #[arg(long)]
     pub no_area_preservation: bool,
+}
+
+fn parse_clean(s: &str) -> Result<usize, String> {
+    let max = mocap2d::retarget::cleanup::MAX_STRENGTH;
+    match s.parse::<usize>() {
+        Ok(v) if v <= max => Ok(v),
+        _ => Err(format!(
+            "{s:?}: expected a whole number of frames from 0 (off) to {max}, e.g. 3"
+        )),
+    }
 }
 
 fn parse_strength(s: &str) -> Result<f64, String> {

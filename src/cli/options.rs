@@ -148,6 +148,11 @@ impl RetargetArgs {
                 sigma_frames: self.cartoon_sigma,
             }),
             keep_size: self.keep_size,
+            clean: mocap2d::retarget::cleanup::Cleanup {
+                strength: self.clean,
+            },
+            stretch: self.stretch,
+            plant_feet: !self.no_plant,
         }
     }
 }

@@ -8,6 +8,7 @@
 //! A [`Rig`] is built once per character and then deforms the mesh for any pose, each frame on
 //! its own (so frames can be deformed in parallel with identical results).
 
+pub mod check;
 pub mod needle;
 pub mod silhouette;
 pub mod skinning;
@@ -52,6 +53,8 @@ pub struct Rig {
     /// Triangle indices in drawing order: by layer (of the topmost bone among the triangle's
     /// vertices), then mesh order.
     pub draw_order: Vec<u32>,
+    /// `(vertex, copy)`: the vertices the hinge split duplicated ([`split::Split::seams`]).
+    pub seams: Vec<(u32, u32)>,
     needles: Vec<Needle>,
     rest_len: Vec<f32>,
     rest_dir: Vec<Vector>,
@@ -97,7 +100,8 @@ impl Rig {
         let mesh = triangulate::build_mesh(image, mesh_vertices)?;
         let layer_of_bone: Vec<i32> = bones.iter().map(|&(_, c)| layers[c]).collect();
         let skin = skinning::skin(&mesh, image, rest, &bones, &layer_of_bone);
-        let (mesh, skin) = split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
+        let split::Split { mesh, skin, seams } =
+            split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
         let rest_out: Vec<Point> = mesh
             .rest
             .iter()
@@ -130,6 +134,7 @@ impl Rig {
             skin,
             bones,
             draw_order,
+            seams,
             needles,
             rest_len,
             rest_dir,
@@ -159,6 +164,11 @@ impl Rig {
             s.solve(&mut pos);
         }
         pos
+    }
+
+    /// The folded and cracked triangles of the mesh at vertices `pos` ([`check::defects`]).
+    pub fn defects(&self, pos: &[Point]) -> check::Defects {
+        check::defects(&self.mesh, &self.seams, pos)
     }
 
     /// Signed areas (px², positive = as at rest) of the triangles for vertices `pos`.

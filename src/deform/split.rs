@@ -13,15 +13,26 @@ use super::triangulate::Mesh;
 use crate::geom::Point;
 use crate::skeleton::Skeleton;
 
-/// Splits `mesh` (with vertex bones `skin`) at hinges; returns the new mesh and skin. Vertices
-/// keep their indices; duplicates are appended.
+/// A mesh split at its hinges.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Split {
+    pub mesh: Mesh,
+    /// Bone of each vertex.
+    pub skin: Vec<u16>,
+    /// `(vertex, copy)`: each duplicate with the vertex it copies (one place at rest, on two
+    /// bones): where the mesh may open.
+    pub seams: Vec<(u32, u32)>,
+}
+
+/// Splits `mesh` (with vertex bones `skin`) at hinges. Vertices keep their indices; duplicates
+/// are appended.
 pub fn split_hinges(
     mesh: &Mesh,
     skin: &[u16],
     skeleton: &Skeleton,
     bones: &[(usize, usize)],
     joints: &[Point],
-) -> (Mesh, Vec<u16>) {
+) -> Split {
     let dir = |b: usize| {
         let d = joints[bones[b].1] - joints[bones[b].0];
         let l = d.norm();
@@ -65,7 +76,11 @@ pub fn split_hinges(
             *v = new;
         }
     }
-    (out, skin_out)
+    Split {
+        mesh: out,
+        skin: skin_out,
+        seams: copies.into_iter().map(|((v, _), c)| (v, c)).collect(),
+    }
 }
 
 #[cfg(test)]
@@ -104,7 +119,12 @@ mod tests {
             spacing_px: 5.0,
         };
         let skin = [0, 1, 2, 3];
-        let (m, s) = split_hinges(&mesh, &skin, &skeleton, &bones, &joints);
+        let Split {
+            mesh: m,
+            skin: s,
+            seams,
+        } = split_hinges(&mesh, &skin, &skeleton, &bones, &joints);
+        assert_eq!(seams, vec![(1, 5), (2, 4), (3, 6)]);
         // Triangle 0 mixes siblings: all its vertices end on one bone (the trunk, nearest root).
         let b0: Vec<u16> = m.triangles[0].iter().map(|&v| s[v as usize]).collect();
         assert_eq!(b0, vec![0, 0, 0]);

@@ -63,11 +63,21 @@ impl Renderer {
 
     /// One frame with the character's joints at `joints` (output px).
     pub fn frame(&self, joints: &[Point]) -> RgbaImage {
+        self.draw(&self.rig.deform(joints))
+    }
+
+    /// [`Renderer::frame`] and the folds and cracks of its mesh ([`Rig::defects`]).
+    pub fn frame_checked(&self, joints: &[Point]) -> (RgbaImage, crate::deform::check::Defects) {
         let pos = self.rig.deform(joints);
+        (self.draw(&pos), self.rig.defects(&pos))
+    }
+
+    /// The mesh at vertices `pos` drawn over the backdrop.
+    fn draw(&self, pos: &[Point]) -> RgbaImage {
         let mut frame = self.backdrop.clone();
         draw_mesh(
             &mut frame,
-            &pos,
+            pos,
             &self.rig.mesh.rest,
             &self.rig.mesh.triangles,
             &self.rig.draw_order,

@@ -4,6 +4,10 @@
 //! pose.csv        frame,joint,x,y            target joints, output px (3 decimals)
 //! bones.csv       frame,bone,length,angle    bone "parent->child": px (3 decimals), radians
 //!                                            clockwise on screen, unwrapped (5 decimals)
+//! clean.csv       frame,joint,x,y,status     the source tracks after the clean-up (px, 3
+//!                                            decimals); status as in tracks.csv, `filled`
+//!                                            where the clean-up dropped a jump and filled it
+//! contacts.csv    frame,joint,contact        each foot joint of the target: 1 on the ground
 //! retarget.toml   the target file's hash, placement, frame size and options, so that
 //!                 `mocap2d render` can check it draws the same character
 //! ```
@@ -48,6 +52,15 @@ pub struct RetargetManifest {
     /// `--keep-size` (absent in manifests of earlier versions: false).
     #[serde(default)]
     pub keep_size: bool,
+    /// The clean-up's strength (`--clean`; 0 = off; absent in earlier manifests: 0).
+    #[serde(default)]
+    pub clean: usize,
+    /// `--stretch` (absent in earlier manifests: false).
+    #[serde(default)]
+    pub stretch: bool,
+    /// Feet held still on the ground (absent in earlier manifests: false).
+    #[serde(default)]
+    pub plant_feet: bool,
 }
 
 impl RetargetManifest {
@@ -69,6 +82,37 @@ pub fn pose_csv(r: &Retargeted, names: &[String]) -> String {
         for (name, p) in names.iter().zip(joints) {
             let _ = writeln!(s, "{f},{name},{:.3},{:.3}", p[0], p[1]);
         }
+    }
+    s
+}
+
+/// `clean.csv` text: the cleaned `motion` of `skeleton` in the order of the `rows` of
+/// `tracks.csv` it came from, each with its status, or `filled` where `dropped`.
+pub fn clean_csv(
+    rows: &[crate::run::TrackRow],
+    skeleton: &crate::skeleton::Skeleton,
+    motion: &super::Motion,
+    dropped: &[Vec<bool>],
+) -> String {
+    let mut s = String::with_capacity(rows.len() * 36);
+    s.push_str("frame,joint,x,y,status\n");
+    let first = motion.frames.first().copied().unwrap_or(0);
+    for r in rows {
+        let t = (r.frame - first) as usize;
+        let Some(j) = skeleton.index_of(&r.joint) else {
+            continue;
+        };
+        let p = motion.joints[t][j];
+        let status = if dropped[t][j] {
+            super::cleanup::FILLED
+        } else {
+            r.status.as_str()
+        };
+        let _ = writeln!(
+            s,
+            "{},{},{:.3},{:.3},{status}",
+            r.frame, r.joint, p[0], p[1]
+        );
     }
     s
 }

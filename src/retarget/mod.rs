@@ -18,10 +18,19 @@
 //! (sums over the driven bones: target rest lengths against source median lengths); the other
 //! joints follow by forward kinematics.
 //!
-//! Before that, optionally, the source joints are smoothed ([`Smooth`]) and each bone's length
-//! and angle signals go through the cartoon filter ([`Cartoon`], docs/method.md §4.4).
+//! Lengths follow their source bones only with [`RetargetOptions::stretch`] (squash and stretch
+//! for a cartoon); by default every bone keeps the character's rest length and only angles
+//! follow, so real footage, where a bone's length in the picture changes with its turn and with
+//! the subject's distance to the camera, does not pull the character apart.
+//!
+//! Before that, the tracks are cleaned ([`cleanup`], by `crate::app::retarget`, docs/method.md
+//! §4.5), optionally the source joints are smoothed ([`Smooth`]) and each bone's length and
+//! angle signals go through the cartoon filter ([`Cartoon`], docs/method.md §4.4). After the
+//! forward kinematics the feet on the ground are found and held still ([`contacts`], §4.6).
 //! [`files`] reads and writes `retarget/pose.csv`, `bones.csv` and `retarget.toml`.
 
+pub mod cleanup;
+pub mod contacts;
 pub mod files;
 pub mod filter;
 pub mod mapping;
@@ -109,14 +118,36 @@ impl std::str::FromStr for Smooth {
 }
 
 /// What `retarget` does on top of docs/method.md eq. 16–17.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RetargetOptions {
+    /// The clean-up of the tracks (docs/method.md §4.5), applied by [`crate::app::retarget`]
+    /// before [`retarget`]; on by default.
+    pub clean: cleanup::Cleanup,
     pub smooth: Option<Smooth>,
     pub cartoon: Option<Cartoon>,
-    /// Keep the character's size when the whole source grows or shrinks (the subject walking
-    /// towards or away from the camera): each frame's driven length ratios are divided by
-    /// their median over the bones, so only the bones' lengths relative to each other follow.
+    /// Bones follow their source bones' changes of length (eq. 18: squash and stretch, for
+    /// cartoon characters); off by default: every bone keeps the character's length.
+    pub stretch: bool,
+    /// With `stretch`, keep the character's size when the whole source grows or shrinks (the
+    /// subject walking towards or away from the camera): each frame's driven length ratios are
+    /// divided by their median over the bones, so only the bones' lengths relative to each
+    /// other follow.
     pub keep_size: bool,
+    /// Hold each foot still while it is on the ground (docs/method.md §4.6); on by default.
+    pub plant_feet: bool,
+}
+
+impl Default for RetargetOptions {
+    fn default() -> Self {
+        RetargetOptions {
+            clean: cleanup::Cleanup::default(),
+            smooth: None,
+            cartoon: None,
+            stretch: false,
+            keep_size: false,
+            plant_feet: true,
+        }
+    }
 }
 
 /// Where the target's rest skeleton goes in the output frame: `out = image · scale + offset`.
@@ -150,6 +181,10 @@ pub struct Retargeted {
     pub length: Vec<Vec<f64>>,
     /// `[t][bone]`: angle, radians clockwise on screen, unwrapped.
     pub angle: Vec<Vec<f64>>,
+    /// The target's feet and legs ([`contacts::legs`]).
+    pub legs: Vec<contacts::Leg>,
+    /// `[leg][t]`: the foot is on the ground ([`contacts::detect`]).
+    pub contact: Vec<Vec<bool>>,
 }
 
 /// Sum of the bone lengths of `joints` (px): the size of a skeleton.
@@ -333,6 +368,9 @@ pub fn retarget(
             if !opts.keep_size {
                 return 1.0;
             }
+            if !opts.stretch {
+                return 1.0;
+            }
             let ratios: Vec<f64> = mapping
                 .bone
                 .iter()
@@ -365,7 +403,7 @@ pub fn retarget(
                 }
                 let l_ref = median(&l).max(1e-9);
                 for t in 0..frames {
-                    let ratio = if mapping.keep_length[b] {
+                    let ratio = if mapping.keep_length[b] || !opts.stretch {
                         1.0
                     } else {
                         (l[t] / l_ref / size[t]).clamp(MIN_LENGTH_RATIO, MAX_LENGTH_RATIO)
@@ -386,6 +424,7 @@ pub fn retarget(
             }
         }
     }
+    limit_girdles(target, &bones, rest_out, &mut angle);
     let (target_size, src_size) = driven_sizes(target, rest_out, &reference);
     let ratio = if src_size > 1e-9 {
         target_size / src_size
@@ -394,7 +433,7 @@ pub fn retarget(
     };
     let order = target.topo_order();
     let all = mapping::SourcePoint((0..src.first().map_or(0, Vec::len)).collect());
-    let joints = (0..frames)
+    let mut joints: Vec<Vec<P64>> = (0..frames)
         .map(|t| {
             let mut pos = vec![[0.0; 2]; target.len()];
             for &j in &order {
@@ -416,12 +455,71 @@ pub fn retarget(
             pos
         })
         .collect();
+    let legs = contacts::legs(target);
+    let contact = contacts::detect(&joints, &legs, rest_out);
+    if opts.plant_feet {
+        contacts::plant(&mut joints, target, &legs, &contact);
+        // The bones as the joints now lie (a planted leg's bones turned).
+        for (t, f) in joints.iter().enumerate() {
+            for (b, &(p, c)) in bones.iter().enumerate() {
+                length[t][b] = dist(f[p], f[c]);
+                if length[t][b] > 1e-9 {
+                    angle[t][b] += wrap(angle_of(f[p], f[c]) - angle[t][b]);
+                }
+            }
+        }
+    }
     Retargeted {
         frames: motion.frames.clone(),
         joints,
         bones,
         length,
         angle,
+        legs,
+        contact,
+    }
+}
+
+/// How far (radians) a girdle bone may turn from its rest angle to the trunk: 25°.
+pub const GIRDLE_LIMIT: f64 = 25.0 * std::f64::consts::PI / 180.0;
+
+/// Joint limits of a front-facing picture (docs/method.md §4.7): a *girdle* bone, one ending at
+/// a joint recognised as a shoulder or a hip, turns at most [`GIRDLE_LIMIT`] from its rest angle
+/// to the trunk (the bone ending where it starts, or at a root the sibling bone ending at a
+/// chest, neck or head). When the subject turns her back the tracked shoulders and hips swap
+/// sides and their line turns half a turn against the trunk, which a picture drawn from the
+/// front cannot show without tearing.
+fn limit_girdles(
+    target: &Skeleton,
+    bones: &[(usize, usize)],
+    rest: &[P64],
+    angle: &mut [Vec<f64>],
+) {
+    use mapping::{recognise, Part};
+    let trunk_part = |j: usize| {
+        matches!(
+            recognise(&target.names[j]),
+            Some(Part::Chest | Part::Neck | Part::Head)
+        )
+    };
+    for (b, &(p, c)) in bones.iter().enumerate() {
+        if !matches!(
+            recognise(&target.names[c]),
+            Some(Part::Shoulder(_) | Part::Hip(_))
+        ) {
+            continue;
+        }
+        let reference = bones.iter().position(|&(_, e)| e == p).or_else(|| {
+            bones
+                .iter()
+                .position(|&(s, e)| s == p && e != c && trunk_part(e))
+        });
+        let Some(r) = reference else { continue };
+        let rest_rel = angle_of(rest[p], rest[c]) - angle_of(rest[bones[r].0], rest[bones[r].1]);
+        for a in angle.iter_mut() {
+            let d = wrap(a[b] - a[r] - rest_rel);
+            a[b] -= d - d.clamp(-GIRDLE_LIMIT, GIRDLE_LIMIT);
+        }
     }
 }
 

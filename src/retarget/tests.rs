@@ -2,6 +2,15 @@
 
 use super::*;
 
+/// Lengths follow the source (eq. 18), feet left as retargeted: the equations alone.
+fn stretching() -> RetargetOptions {
+    RetargetOptions {
+        stretch: true,
+        plant_feet: false,
+        ..Default::default()
+    }
+}
+
 /// pelvis (root) -> chest -> head; pelvis -> knee -> ankle.
 fn skel() -> Skeleton {
     Skeleton::new(
@@ -67,7 +76,7 @@ fn identity_retarget_reproduces_the_tracks() {
         &reference_lengths(&m.joints, &ident),
     );
     let rest_out: Vec<P64> = rest.iter().map(|&p| place.apply(p)).collect();
-    let r = retarget(&m, &s, &ident, &rest_out, &RetargetOptions::default());
+    let r = retarget(&m, &s, &ident, &rest_out, &stretching());
     assert_eq!(r.frames, m.frames);
     let mut worst: f64 = 0.0;
     for (a, b) in r.joints.iter().zip(&m.joints) {
@@ -92,7 +101,7 @@ fn length_ratios_and_angle_increments_carry_over_exactly() {
         [280.0, 150.0],
         [300.0, 220.0],
     ];
-    let r = retarget(&m, &s, &ident, &rest_out, &RetargetOptions::default());
+    let r = retarget(&m, &s, &ident, &rest_out, &stretching());
     for (b, &(p, c)) in s.bones().iter().enumerate() {
         let (l, a) = bone_signals(
             &m.joints,
@@ -244,7 +253,7 @@ fn bones_of_another_shape_are_driven_by_source_bones_and_the_rest_keep_their_ang
         root: vec![Some(pt(&[0, 1])), None, None, None],
         keep_length: vec![false; 3],
     };
-    let r = retarget(&motion, &target, &m, &rest_out, &RetargetOptions::default());
+    let r = retarget(&motion, &target, &m, &rest_out, &stretching());
     for t in 0..frames {
         // The chest leans with the mid-hips -> mid-shoulders line.
         let lean = r.angle[t][0] - r.angle[0][0];
@@ -266,13 +275,7 @@ fn bones_of_another_shape_are_driven_by_source_bones_and_the_rest_keep_their_ang
         root: m.root.clone(),
         keep_length: vec![false; 3],
     };
-    let r = retarget(
-        &motion,
-        &target,
-        &m2,
-        &rest_out,
-        &RetargetOptions::default(),
-    );
+    let r = retarget(&motion, &target, &m2, &rest_out, &stretching());
     for t in 0..frames {
         let d = (r.angle[t][1] - r.angle[t][0]) - (r.angle[0][1] - r.angle[0][0]);
         assert!(d.abs() < 1e-12, "{t}: {d}");
@@ -294,7 +297,7 @@ fn lengths_are_anchored_at_the_median_so_an_odd_first_frame_does_not_carry_over(
     };
     let rest_out = vec![[0.0, 0.0], [0.0, 60.0]];
     let m = Mapping::identity(&s);
-    let r = retarget(&motion, &s, &m, &rest_out, &RetargetOptions::default());
+    let r = retarget(&motion, &s, &m, &rest_out, &stretching());
     // The target's rest length stands for the typical 100 px, not for the first frame's 4 px.
     for t in 1..20 {
         assert!(
@@ -350,10 +353,10 @@ fn keep_size_holds_the_size_when_the_whole_source_zooms() {
     let rest_out = motion.joints[0].clone();
     let keep = RetargetOptions {
         keep_size: true,
-        ..Default::default()
+        ..stretching()
     };
     let r = retarget(&motion, &s, &m, &rest_out, &keep);
-    let free = retarget(&motion, &s, &m, &rest_out, &RetargetOptions::default());
+    let free = retarget(&motion, &s, &m, &rest_out, &stretching());
     let rest_len = |b: usize| {
         let (p, c) = s.bones()[b];
         dist(rest_out[p], rest_out[c])
@@ -371,4 +374,31 @@ fn keep_size_holds_the_size_when_the_whole_source_zooms() {
         "{}",
         rel(30) / rel(10)
     );
+}
+
+/// By default every bone keeps the character's rest length whatever its source bone does, and
+/// the angles still follow exactly.
+#[test]
+fn by_default_bones_keep_their_length_and_follow_the_angles() {
+    let s = skel();
+    let m = wobbly_stretching(60, 1.0);
+    let ident = Mapping::identity(&s);
+    let rest_out = m.joints[0].clone();
+    let opts = RetargetOptions {
+        plant_feet: false,
+        ..Default::default()
+    };
+    let r = retarget(&m, &s, &ident, &rest_out, &opts);
+    let stretched = retarget(&m, &s, &ident, &rest_out, &stretching());
+    let mut varied: f64 = 0.0;
+    for t in 0..60 {
+        for (b, &(p, c)) in s.bones().iter().enumerate() {
+            let rest = dist(rest_out[p], rest_out[c]);
+            assert!((dist(r.joints[t][p], r.joints[t][c]) - rest).abs() < 1e-9);
+            assert!((r.angle[t][b] - stretched.angle[t][b]).abs() < 1e-12);
+            varied = varied.max((stretched.length[t][b] / rest - 1.0).abs());
+        }
+    }
+    // The source stretches (chest ±20 %, shin ±25 %): with --stretch the target does too.
+    assert!(varied > 0.15, "{varied}");
 }

@@ -10,6 +10,7 @@ use mocap2d::deform::DeformOptions;
 use mocap2d::geom::Point;
 use mocap2d::progress::NoProgress;
 use mocap2d::render::{coverage, Texture};
+use mocap2d::retarget::cleanup::Cleanup;
 use mocap2d::retarget::files::read_pose;
 use mocap2d::retarget::{Cartoon, RetargetOptions};
 use mocap2d::synth::{Scenario, SynthClip};
@@ -60,7 +61,16 @@ fn identity_retarget_reproduces_the_tracked_joints() {
     }
     let target = d.path().join("same.toml");
     std::fs::write(&target, toml).unwrap();
-    let o = mocap2d(&["retarget", s(&run), "--target", s(&target)]);
+    // Equations 16-19 alone: no clean-up, feet not planted.
+    let o = mocap2d(&[
+        "retarget",
+        s(&run),
+        "--target",
+        s(&target),
+        "--clean",
+        "0",
+        "--no-plant",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let got = poses(&run, &c.joint_names);
     let mut worst = 0.0f32;
@@ -108,9 +118,14 @@ fn area_preservation_holds_the_silhouette_area_over_a_squash_clip() {
     // Bones stretch and squash by ±30 %.
     let c = clip(Scenario::Squash, 480, 360, 60);
     let run = run_from_gt(d.path(), &c);
+    // Lengths follow the source: squash and stretch.
+    let stretch = RetargetOptions {
+        stretch: true,
+        ..Default::default()
+    };
     for name in ["imp.toml", "robot.toml"] {
         let target = characters(name);
-        app::retarget(&run, &target, &RetargetOptions::default()).unwrap();
+        app::retarget(&run, &target, &stretch).unwrap();
         let with = area_changes(&run, &target, DeformOptions::default());
         let worst = with.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(
@@ -180,13 +195,14 @@ fn cartoon_filter_anticipates_and_overshoots_a_step() {
         .map(|t| if t < 20 { base.clone() } else { swung.clone() })
         .collect();
     let run = run_from_gt(d.path(), &stepped);
+    // The filter alone, on the step as given.
     let opts = RetargetOptions {
-        keep_size: false,
-        smooth: None,
+        clean: Cleanup { strength: 0 },
         cartoon: Some(Cartoon {
             strength: 2.0,
             sigma_frames: 3.0,
         }),
+        ..Default::default()
     };
     app::retarget(&run, &characters("imp.toml"), &opts).unwrap();
     let bones = std::fs::read_to_string(run.join("retarget/bones.csv")).unwrap();
@@ -508,7 +524,8 @@ fn map_and_bones_entries_choose_the_source_bones() {
         + "\n[map]\nhead = \"mid(neck, head)\"\n\n[bones]\nwrist_l = [\"chest\", \"wrist_l\"]\n";
     let target = d.path().join("imp.toml");
     std::fs::write(&target, text).unwrap();
-    let o = mocap2d(&["retarget", s(&run), "--target", s(&target)]);
+    // The mapping alone: no clean-up.
+    let o = mocap2d(&["retarget", s(&run), "--target", s(&target), "--clean", "0"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(

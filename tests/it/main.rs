@@ -11,6 +11,7 @@ mod accuracy;
 mod animate;
 mod batch;
 mod camera;
+mod cleanup;
 mod cli;
 mod dance;
 mod decode;

@@ -1,0 +1,106 @@
+//! Checks of a deformed mesh (docs/method.md §5.8): no triangle folded over (its signed area at
+//! or below zero, against its positive area at rest) and no crack, a place where the mesh came
+//! apart at a hinge seam ([`super::split`]) and the ground shows between the two sides.
+
+use super::triangulate::{triangle_area, Mesh};
+use crate::geom::Point;
+
+/// Two copies of one rest vertex further apart than this (px) have opened the seam.
+pub const CRACK_PX: f32 = 1.0;
+
+/// What [`defects`] found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Defects {
+    /// Triangles folded over (signed area ≤ 0).
+    pub folded: Vec<usize>,
+    /// Seams `(vertex, copy)` opened by more than [`CRACK_PX`] with uncovered ground between
+    /// the two copies.
+    pub cracks: Vec<(u32, u32)>,
+}
+
+impl Defects {
+    /// No fold and no crack.
+    pub fn is_clean(&self) -> bool {
+        self.folded.is_empty() && self.cracks.is_empty()
+    }
+}
+
+/// The folds and cracks of `mesh` (with hinge seams `seams`) at vertices `pos`. A seam is cracked
+/// when its two copies are more than [`CRACK_PX`] apart and a point between them (at a quarter,
+/// half or three quarters of the way) lies in no triangle of the deformed mesh: where a limb
+/// swings past a part drawn behind or in front of it, the seam opens over that part and nothing
+/// shows through.
+pub fn defects(mesh: &Mesh, seams: &[(u32, u32)], pos: &[Point]) -> Defects {
+    let folded = mesh
+        .triangles
+        .iter()
+        .enumerate()
+        .filter(|(_, &t)| !(triangle_area(pos, t) > 0.0))
+        .map(|(i, _)| i)
+        .collect();
+    let covered = |q: Point| {
+        mesh.triangles.iter().any(|&t| {
+            let [a, b, c] = t.map(|v| pos[v as usize]);
+            let side = |p: Point, r: Point| (r.x - p.x) * (q.y - p.y) - (r.y - p.y) * (q.x - p.x);
+            let (d1, d2, d3) = (side(a, b), side(b, c), side(c, a));
+            (d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0) || (d1 <= 0.0 && d2 <= 0.0 && d3 <= 0.0)
+        })
+    };
+    let cracks = seams
+        .iter()
+        .filter(|&&(v, c)| {
+            let (p, q) = (pos[v as usize], pos[c as usize]);
+            (q - p).norm() > CRACK_PX
+                && [0.25f32, 0.5, 0.75]
+                    .iter()
+                    .any(|&w| !covered(p + (q - p) * w))
+        })
+        .copied()
+        .collect();
+    Defects { folded, cracks }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles sharing the edge 1–2, the second drawn with copies 3, 4 of 1, 2.
+    fn pair() -> (Mesh, Vec<(u32, u32)>, Vec<Point>) {
+        let rest = vec![
+            Point::new(0.0, 0.0),
+            Point::new(10.0, 0.0),
+            Point::new(0.0, 10.0),
+            Point::new(10.0, 0.0),
+            Point::new(0.0, 10.0),
+            Point::new(10.0, 10.0),
+        ];
+        let mesh = Mesh {
+            rest: rest.clone(),
+            triangles: vec![[0, 1, 2], [3, 5, 4]],
+            outline: vec![],
+            on_outline: vec![false; 6],
+            spacing_px: 10.0,
+        };
+        (mesh, vec![(1, 3), (2, 4)], rest)
+    }
+
+    #[test]
+    fn finds_a_fold_and_an_open_seam_but_not_a_covered_one() {
+        let (mesh, seams, mut pos) = pair();
+        assert!(defects(&mesh, &seams, &pos).is_clean());
+        // The second triangle moves 5 px right: the seam opens onto nothing.
+        for v in [3, 4, 5] {
+            pos[v].x += 5.0;
+        }
+        assert_eq!(defects(&mesh, &seams, &pos).cracks, seams);
+        // Moved left over the first triangle instead: the opening is covered.
+        for v in [3, 4, 5] {
+            pos[v].x -= 10.0;
+        }
+        assert!(defects(&mesh, &seams, &pos).cracks.is_empty());
+        // The first triangle turned over.
+        let (_, _, mut pos) = pair();
+        pos[0] = Point::new(12.0, 12.0);
+        assert_eq!(defects(&mesh, &seams, &pos).folded, vec![0]);
+    }
+}
