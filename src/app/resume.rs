@@ -7,6 +7,7 @@ use crate::background::Background;
 use crate::decode;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
+use crate::run::keys;
 use crate::run::manifest::RUN_TOML;
 use crate::run::segments::{self, hash_file};
 use crate::run::session::Session;
@@ -52,11 +53,15 @@ pub fn resume(opts: &ResumeOptions, progress: &dyn Progress) -> Result<Option<Tr
         msg: format!("{e}; track again into a new folder"),
     })?;
     let (base, _) = read_seeds(&run_dir.join("seeds.toml"))?;
+    // keys.toml must read, its frames inside the clip when its length is known, before
+    // anything in the folder is touched: a refusal leaves tracks.csv where it is.
+    let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
+    let frames = (manifest.frames > 0).then_some(manifest.frames);
+    keys::read(run_dir, &names, manifest.width, manifest.height, frames)?;
     let first = match pick_segment(opts, &manifest, run_dir)? {
         Some(k) => k,
         None => return Ok(None),
     };
-    let names: Vec<String> = base.joints.iter().map(|j| j.name.clone()).collect();
     let background = background_of(&manifest, &base, &clip, &manifest_path)?;
     let mut session = Session {
         run_dir: run_dir.clone(),

@@ -130,6 +130,14 @@ pub fn track_into(
             ),
         });
     }
+    if info.stated_frames == Some(1) {
+        // (A picture file given as the clip is refused as it opens, crate::decode.)
+        return Err(Error::Clip {
+            path: opts.clip.clone(),
+            msg: "holds a single frame: one frame has no motion to track; give the whole clip"
+                .into(),
+        });
+    }
     seeds
         .check_against_clip(&opts.seeds, info.width, info.height, info.frame_count_hint)
         .map_err(|e| match (e, &opts.dlc) {

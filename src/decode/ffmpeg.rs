@@ -71,6 +71,27 @@ impl std::fmt::Debug for FfmpegSource {
     }
 }
 
+/// Whether FFmpeg's demuxer `name` reads still pictures: `image2` (a picture file named as
+/// one) and the `*_pipe` demuxers (a picture's content, whatever its name; a pipe of several
+/// pictures is a clip).
+fn is_picture_demuxer(name: &str) -> bool {
+    name.split(',')
+        .any(|n| n == "image2" || n.ends_with("_pipe"))
+}
+
+/// The packets of stream `index` in the file at `path`, counted up to `most` (0 when it does
+/// not open again).
+fn packets_up_to(path: &Path, index: usize, most: usize) -> usize {
+    let Ok(mut input) = ff::format::input(path) else {
+        return 0;
+    };
+    input
+        .packets()
+        .filter(|(s, _)| s.index() == index)
+        .take(most)
+        .count()
+}
+
 impl FfmpegSource {
     /// Opens the best video stream of `path`; `fps` (frames per second) overrides the stream's
     /// average rate (30 if the container states none).
@@ -122,6 +143,16 @@ impl FfmpegSource {
             .best(ff::media::Type::Video)
             .ok_or_else(|| clip_err("has no video stream".into()))?;
         let stream_index = stream.index();
+        // A picture (PNG, JPEG, … whatever its name) opens as a one-frame "video": say so
+        // rather than track a single frame.
+        let demuxer = input.format().name().to_owned();
+        if is_picture_demuxer(&demuxer) && packets_up_to(path, stream_index, 2) < 2 {
+            return Err(clip_err(format!(
+                "a single picture (FFmpeg reads it as `{demuxer}`), not a video: one frame has \
+                 no motion to track; give the video, or a folder of its frames as numbered \
+                 PNG/JPEG files"
+            )));
+        }
         let time_base = stream.time_base();
         let mut context = ff::codec::context::Context::from_parameters(stream.parameters())
             .map_err(|e| clip_err(format!("cannot read the video stream's parameters ({e})")))?;

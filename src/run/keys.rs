@@ -59,6 +59,33 @@ pub fn read(
     parse(&text, &file, names, width, height, frames)
 }
 
+/// Refuses `keys` (read from `RUN/keys.toml` by [`read`] before the clip's length was known)
+/// when one lies on or past frame `frames`, the clip's length, found as it ended: the error
+/// names the file's line, as [`read`] given `frames` does.
+pub fn check_within(
+    run_dir: &Path,
+    names: &[String],
+    (width, height): (u32, u32),
+    keys: &[Key],
+    frames: u64,
+) -> Result<()> {
+    let Some(past) = keys.iter().find(|k| k.frame >= frames) else {
+        return Ok(());
+    };
+    read(run_dir, names, width, height, Some(frames))?;
+    // The file changed since it was read: name the frame without its line.
+    Err(Error::Seed {
+        path: path(run_dir),
+        line: None,
+        joint: None,
+        msg: format!(
+            "frame = {}, but the clip has {frames} frames (0 to {})",
+            past.frame,
+            frames.saturating_sub(1)
+        ),
+    })
+}
+
 /// Parses a keys file's text (see [`read`]); `file` names it in errors.
 pub fn parse(
     text: &str,

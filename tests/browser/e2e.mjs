@@ -7,7 +7,7 @@
 // go to frame 20, step by keys, drag the head, save the seeds, check the file and that `track`
 // reads it, and track from the page. Leaves screenshots.
 //
-//   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default target/debug/mocap2d;
+//   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default cargo's target/debug/mocap2d;
 //                                          CHROMIUM: default /usr/bin/chromium;
 //                                          SCREENSHOT: default target/browser/page.png)
 import { chromium } from "playwright-core";
@@ -17,7 +17,16 @@ import os from "node:os";
 import path from "node:path";
 
 const root = path.resolve(path.dirname(new URL(import.meta.url).pathname), "../..");
-const bin = path.resolve(root, process.env.MOCAP2D || "target/debug/mocap2d");
+// The binary: MOCAP2D, else the debug build in cargo's target folder (CARGO_TARGET_DIR or
+// .cargo/config may move it: ask cargo).
+const targetDir = () =>
+  JSON.parse(
+    execFileSync("cargo", ["metadata", "--format-version", "1", "--no-deps"], {
+      cwd: root,
+      encoding: "utf8",
+    }),
+  ).target_directory;
+const bin = path.resolve(root, process.env.MOCAP2D || path.join(targetDir(), "debug/mocap2d"));
 const shot = path.resolve(root, process.env.SCREENSHOT || "target/browser/page.png");
 let failures = 0;
 const check = (ok, what) => {

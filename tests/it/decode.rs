@@ -210,4 +210,52 @@ mod video {
             "{err}"
         );
     }
+
+    /// A picture given as the clip (PNG or JPEG, by its own name or named `.mp4`) is refused
+    /// with one message and exit 2, writing nothing; so is a folder of one frame. A pipe of
+    /// several pictures (concatenated JPEGs) is a clip and still reads.
+    #[test]
+    fn a_picture_given_as_the_clip_is_refused_not_tracked_as_one_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let seeds = crate::common::walk("joints.toml");
+        let plate = image::open(crate::common::walk("background.png"))
+            .unwrap()
+            .to_rgb8();
+        let (png, jpg) = (dir.path().join("still.png"), dir.path().join("still.jpg"));
+        plate.save(&png).unwrap();
+        plate.save(&jpg).unwrap();
+        let png_mp4 = dir.path().join("png.mp4");
+        let jpg_mp4 = dir.path().join("jpg.mp4");
+        std::fs::copy(&png, &png_mp4).unwrap();
+        std::fs::copy(&jpg, &jpg_mp4).unwrap();
+        let one = dir.path().join("one");
+        std::fs::create_dir(&one).unwrap();
+        std::fs::copy(&png, one.join("frame0.png")).unwrap();
+        for (path, says) in [
+            (&png, "single picture"),
+            (&jpg, "single picture"),
+            (&png_mp4, "single picture"),
+            (&jpg_mp4, "single picture"),
+            (&one, "single frame"),
+        ] {
+            let out_dir = dir.path().join("r.mocap");
+            let out = crate::common::run(&[
+                "track",
+                path.to_str().unwrap(),
+                "--seeds",
+                seeds.to_str().unwrap(),
+                "--out",
+                out_dir.to_str().unwrap(),
+                "-q",
+            ]);
+            let err = crate::common::assert_fails(&out, 2, &[path.to_str().unwrap(), says]);
+            assert_eq!(err.lines().count(), 1, "{err}");
+            assert!(!out_dir.exists(), "{} wrote a run folder", path.display());
+        }
+        let mut pipe = std::fs::read(&jpg).unwrap();
+        pipe.extend(std::fs::read(&jpg).unwrap());
+        let mjpeg = dir.path().join("two.mjpeg");
+        std::fs::write(&mjpeg, pipe).unwrap();
+        assert_eq!(decode::read_all(&mjpeg, None).unwrap().len(), 2);
+    }
 }

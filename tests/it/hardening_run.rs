@@ -231,6 +231,78 @@ fn stale_temp_files_are_neither_an_obstacle_nor_mistaken_for_output() {
     assert!(std::fs::read_to_string(&json).unwrap().starts_with('{'));
 }
 
+/// Every file of `run` but `keys.toml` (relative path, bytes).
+fn all_but_keys(run: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = folder_bytes(run);
+    files.retain(|(name, _)| name != "keys.toml");
+    files
+}
+
+/// `resume` refuses a keys.toml it cannot use (a key on a frame just past the clip, one far
+/// past it, a joint the run lacks, broken TOML) and a `.lock` that is a symbolic link with exit
+/// 2, naming the file, before it touches the folder: `tracks.csv` stays, so `review`, `retarget`
+/// and the rest still read the run, and the file the link points to is left as it was.
+#[test]
+fn resume_refuses_bad_keys_and_a_linked_lock_before_touching_the_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.mocap");
+    tracked_and_retargeted(&out);
+    let before = all_but_keys(&out);
+    let keys = out.join("keys.toml");
+    let resume = || run(&["resume", s(&out), "--segment", "0", "-q"]);
+    // The sample clip has 60 frames (0 to 59).
+    for (text, says) in [
+        (
+            "[[key]]\nframe = 70\npelvis = [100, 100]\n",
+            "line 2: frame = 70",
+        ),
+        (
+            "[[key]]\nframe = 60\npelvis = [100, 100]\n",
+            "line 2: frame = 60",
+        ),
+        (
+            "[[key]]\nframe = 600\npelvis = [100, 100]\n",
+            "frame = 600, but",
+        ),
+        ("[[key]]\nframe = 10\nnose = [100, 100]\n", "joint \"nose\""),
+        ("[[key]\nframe = 10\n", "line 1"),
+    ] {
+        std::fs::write(&keys, text).unwrap();
+        let err = assert_fails(&resume(), 2, &["keys.toml", says]);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(
+            all_but_keys(&out) == before,
+            "the run folder changed: {err}"
+        );
+    }
+    assert_ok(&run(&["retarget", s(&out), "--target", s(&robot())]));
+    // A key past the end of a run whose clip's length is not yet known (a run stopped before
+    // its end): refused as the clip ends, not a panic; the run resumes once the key is fixed.
+    let manifest = std::fs::read_to_string(out.join("run.toml")).unwrap();
+    let stopped = manifest
+        .replace("frames = 60\n", "frames = 0\n")
+        .replace("complete = true\n", "complete = false\n");
+    assert_ne!(stopped, manifest);
+    std::fs::write(out.join("run.toml"), &stopped).unwrap();
+    std::fs::write(&keys, "[[key]]\nframe = 70\npelvis = [100, 100]\n").unwrap();
+    assert_fails(
+        &resume(),
+        2,
+        &["keys.toml", "line 2: frame = 70", "60 frames"],
+    );
+    std::fs::write(&keys, "[[key]]\nframe = 50\npelvis = [100, 100]\n").unwrap();
+    assert_ok(&resume());
+    assert!(out.join("tracks.csv").is_file());
+    // A `.lock` linked to another file: refused, that file left as it was.
+    let precious = dir.path().join("precious.txt");
+    std::fs::write(&precious, "keep me\n").unwrap();
+    std::os::unix::fs::symlink(&precious, out.join(".lock")).unwrap();
+    let before = folder_bytes(&out);
+    assert_fails(&resume(), 2, &[".lock", "symbolic link"]);
+    assert_eq!(std::fs::read_to_string(&precious).unwrap(), "keep me\n");
+    assert!(folder_bytes(&out) == before, "the run folder changed");
+}
+
 /// The temp name of `p` a crash of an earlier build left (`NAME.tmp`; writes now use
 /// `NAME.<pid>.<n>.tmp`, which a write removes on failure and renames on success).
 fn crate_tmp(p: &Path) -> PathBuf {

@@ -8,7 +8,7 @@ use super::{ahead, flow, spans};
 use crate::error::Result;
 use crate::geom::Point;
 use crate::run::keyed;
-use crate::run::keys::Key;
+use crate::run::keys::{self, Key};
 use crate::track::flow::GreyPyramid;
 use crate::track::scale::Frame;
 use crate::track::{JointEstimate, Status};
@@ -160,6 +160,12 @@ impl Session {
             if hold {
                 held.push(frame);
             }
+        }
+        if boundary.is_none() {
+            // The clip ended inside this segment: a key past its last frame has no frame to
+            // pull (docs/formats.md, "Keys").
+            let size = (self.width, self.height);
+            keys::check_within(&self.run_dir, &self.names, size, keys, frames.count)?;
         }
         let mut passes = forward.into_iter();
         let (mut out, tracker) = passes.next().expect("one forward pass").finish_keep();
