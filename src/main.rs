@@ -381,7 +381,10 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             );
         }
         Command::Serve(a) => {
-            let stop = std::sync::atomic::AtomicBool::new(false);
+            // Ctrl-C stops the server cleanly: a resume started from the page stops at its next
+            // checkpoint and the requests under way are answered (a second Ctrl-C quits now).
+            let stop = &STOP;
+            POLLED.store(true, Ordering::SeqCst);
             let ready = |addr| {
                 let what = match &a.seeds_out {
                     Some(out) => format!("seeding {} -> {}", a.run.display(), out.display()),
@@ -391,10 +394,11 @@ fn run(cli: Cli) -> mocap2d::Result<ExitCode> {
             };
             match (&a.seeds_out, &a.skeleton) {
                 (Some(out), Some(skeleton)) => {
-                    app::serve_seeds(&a.run, skeleton, out, a.port, &stop, ready)?
+                    app::serve_seeds(&a.run, skeleton, out, a.port, stop, ready)?
                 }
-                _ => app::serve(&a.run, a.clip.as_deref(), a.port, &stop, ready)?,
+                _ => app::serve(&a.run, a.clip.as_deref(), a.port, stop, ready)?,
             }
+            eprintln!("mocap2d: serve stopped");
         }
         Command::Eval(a) => {
             for line in app::eval(&a.run, &a.gt, a.per_joint)? {

@@ -4,30 +4,41 @@
 //! first seeds (see [`crate::review::seed_api`]).
 
 use crate::error::Result;
-use crate::progress::NoProgress;
+use crate::progress::Progress;
 use crate::review::api::{Api, ResumeFn};
 use crate::review::seed_api::{SeedApi, TrackFn};
 use crate::review::serve::{Pages, Server};
 use std::net::SocketAddr;
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Default port of `mocap2d serve`.
 pub const DEFAULT_PORT: u16 = 8765;
+
+/// The progress of work started from the page: nothing drawn; it stops at its next checkpoint
+/// once the flag is set (the server is stopping).
+struct UntilStopped<'a>(&'a AtomicBool);
+
+impl Progress for UntilStopped<'_> {
+    fn advance(&self, _n: u64) -> bool {
+        !self.0.load(Ordering::SeqCst)
+    }
+}
 
 /// What the page's "Resume from here" button runs: `mocap2d resume RUN --segment K` (with the
 /// clip the server was given, if any), then `mocap2d review RUN` so the overlay shows the result.
 fn resume_hook(clip: Option<&Path>) -> Option<Box<ResumeFn>> {
     let clip = clip.map(Path::to_path_buf);
-    Some(Box::new(move |run: &Path, k: u32| {
+    Some(Box::new(move |run: &Path, k: u32, stop: &AtomicBool| {
+        let progress = UntilStopped(stop);
         let opts = super::resume::ResumeOptions {
             run: run.to_path_buf(),
             segment: Some(u64::from(k)),
             clip: clip.clone(),
             params: None,
         };
-        let done = super::resume::resume(&opts, &NoProgress)?;
-        super::review::review(run, clip.as_deref(), &NoProgress)?;
+        let done = super::resume::resume(&opts, &progress)?;
+        super::review::review(run, clip.as_deref(), &progress)?;
         Ok(match done {
             Some(s) => format!(
                 "resumed from segment {k:03}: {} frames tracked; review/ refreshed. {}",
@@ -39,7 +50,9 @@ fn resume_hook(clip: Option<&Path>) -> Option<Box<ResumeFn>> {
 }
 
 /// Reads the run, binds `127.0.0.1:port` (0: any free port), calls `ready` with the address,
-/// then answers requests until `stop` is set.
+/// then answers requests until `stop` is set (Ctrl-C): a resume started from the page then stops
+/// at its next checkpoint (`mocap2d resume RUN` carries on from there), the requests under way
+/// are answered, and it returns.
 pub fn serve(
     run: &Path,
     clip: Option<&Path>,
@@ -54,8 +67,9 @@ pub fn serve(
 /// What the seeding page's "Track" button runs: `mocap2d track CLIP --seeds SEEDS` into the
 /// default run folder.
 fn track_hook() -> Box<TrackFn> {
-    Box::new(|clip: &Path, seeds: &Path| {
-        let s = super::track::track(&super::TrackOptions::new(clip, seeds), &NoProgress)?;
+    Box::new(|clip: &Path, seeds: &Path, stop: &AtomicBool| {
+        let opts = super::TrackOptions::new(clip, seeds);
+        let s = super::track::track(&opts, &UntilStopped(stop))?;
         Ok(format!(
             "tracked {} joints over {} frames -> {}. {} Correct it with `mocap2d serve {}`.",
             s.joints,
@@ -90,6 +104,5 @@ fn answer<P: Pages>(
 ) -> Result<()> {
     let server = Server::bind(api, port)?;
     ready(server.addr());
-    server.run(stop);
-    Ok(())
+    server.run(stop)
 }

@@ -15,7 +15,8 @@ use serde::Deserialize;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 /// Folder under `segments/` keeping every replaced version of a segment file.
 pub const HISTORY_DIR: &str = "history";
@@ -24,9 +25,10 @@ pub const HISTORY_DIR: &str = "history";
 type Broken = (String, String);
 
 /// Runs the resume of segment number `k` of the run folder and refreshes the review outputs,
-/// returning a message for the page. Supplied by the app (`app::serve`); without it the page's
-/// button answers 501.
-pub type ResumeFn = dyn Fn(&Path, u32) -> Result<String> + Send + Sync;
+/// returning a message for the page; stops at its next checkpoint (with
+/// [`Error::Interrupted`]) once the flag is set. Supplied by the app (`app::serve`); without it
+/// the page's button answers 501.
+pub type ResumeFn = dyn Fn(&Path, u32, &AtomicBool) -> Result<String> + Send + Sync;
 
 /// The run being corrected, and the first frames decoded so far (PNG bytes by frame).
 pub struct Api {
@@ -36,6 +38,29 @@ pub struct Api {
     resume: Option<Box<ResumeFn>>,
     /// Any frame for the key editor: see [`super::keys_api`].
     pub(super) any_frame: super::frame_cache::FrameCache,
+    /// What the page is writing now.
+    writes: Writes,
+}
+
+/// The page's writes to the run folder. Saves (segment files, keys) wait for each other, as
+/// they are short; a resume started from the page refuses them at once (409) while it runs, and
+/// waits for those under way before it starts. (A `track` or `resume` of another process holds
+/// the run folder's lock, which makes a save answer 409 too.)
+#[derive(Default)]
+struct Writes {
+    saving: Mutex<()>,
+    resuming: AtomicBool,
+    /// Set when the server stops: a resume under way stops at its next checkpoint.
+    stopping: AtomicBool,
+}
+
+/// Clears a flag when dropped.
+struct Clear<'a>(&'a AtomicBool);
+
+impl Drop for Clear<'_> {
+    fn drop(&mut self) {
+        self.0.store(false, Ordering::SeqCst);
+    }
 }
 
 /// A rectangle as the page sends it.
@@ -68,7 +93,41 @@ impl Api {
             frames: Mutex::new(BTreeMap::new()),
             resume,
             any_frame: Default::default(),
+            writes: Writes::default(),
         })
+    }
+
+    /// The server is stopping: a resume under way stops at its next checkpoint, and no other
+    /// starts.
+    pub(super) fn stop_work(&self) {
+        self.writes.stopping.store(true, Ordering::SeqCst);
+    }
+
+    /// True while a resume started from the page runs.
+    pub(super) fn resuming(&self) -> bool {
+        self.writes.resuming.load(Ordering::SeqCst)
+    }
+
+    /// The page's turn to save `what` (`edit`, `key`): at once 409 while a resume started from
+    /// the page runs, else after the saves under way.
+    pub(super) fn save_turn(&self, what: &str) -> std::result::Result<MutexGuard<'_, ()>, Reply> {
+        let busy = || {
+            Reply::error(
+                409,
+                format!(
+                    "a resume started from this page is writing the run folder; your {what} is \
+                     not saved: save it again once the resume is done"
+                ),
+            )
+        };
+        if self.resuming() {
+            return Err(busy());
+        }
+        let turn = self.writes.saving.lock().unwrap_or_else(|e| e.into_inner());
+        if self.resuming() {
+            return Err(busy());
+        }
+        Ok(turn)
     }
 
     fn seg_dir(&self) -> PathBuf {
@@ -258,6 +317,10 @@ impl Api {
         };
         // One writer at a time: while `track` or `resume` writes the run folder, a save could
         // be overwritten by it, so it is refused (the page keeps the edit to save again).
+        let _turn = match self.save_turn("edit") {
+            Ok(t) => t,
+            Err(r) => return r,
+        };
         let _lock = match crate::run::lock::RunLock::acquire(&self.data.dir, "serve (a save)") {
             Ok(l) => l,
             Err(e @ Error::RunFolder { .. }) => {
@@ -299,7 +362,8 @@ impl Api {
     }
 
     /// `POST /api/segments/ID/resume`: resumes tracking from this segment, when the app supplies
-    /// a resume; 501 otherwise.
+    /// a resume; 501 otherwise. 409 while another resume from the page runs; 503 once the
+    /// server is stopping (a resume under way then stops at its next checkpoint).
     pub fn resume(&self, id: &str) -> Reply {
         if let Err(r) = self.segment_path(id) {
             return r;
@@ -312,8 +376,32 @@ impl Api {
             );
         };
         let k: u32 = id.parse().unwrap_or(0);
-        match resume(&self.data.dir, k) {
+        let stopping = &self.writes.stopping;
+        let stopped = || {
+            Reply::error(
+                503,
+                format!(
+                    "serve is stopping (Ctrl-C); the resume stopped at a checkpoint: carry on \
+                     with `mocap2d resume {}`",
+                    self.data.dir.display()
+                ),
+            )
+        };
+        if stopping.load(Ordering::SeqCst) {
+            return Reply::error(503, "serve is stopping (Ctrl-C); no resume starts now");
+        }
+        if self.writes.resuming.swap(true, Ordering::SeqCst) {
+            return Reply::error(
+                409,
+                "a resume started from this page is already running; wait for it to finish",
+            );
+        }
+        let _done = Clear(&self.writes.resuming);
+        // Saves under way finish first; later ones are refused until the resume is done.
+        drop(self.writes.saving.lock().unwrap_or_else(|e| e.into_inner()));
+        match resume(&self.data.dir, k, stopping) {
             Ok(msg) => Reply::json(200, &json!({ "resumed": true, "message": msg })),
+            Err(Error::Interrupted) => stopped(),
             Err(e) if e.is_user_error() => Reply::error(400, e.to_string()),
             Err(e) => Reply::error(500, e.to_string()),
         }

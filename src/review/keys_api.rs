@@ -1,7 +1,8 @@
 //! The correction page's keys on any frame (`RUN/keys.toml`, [`crate::run::keys`]):
 //!
 //! - `GET /api/frames/N`: the tracked joints of frame N (from `tracks.csv`, read again whenever
-//!   it changes, so a resume shows) and which of them `keys.toml` keys there.
+//!   it changes, so a resume shows) and which of them `keys.toml` keys there, with their keys;
+//!   409 saying so while a resume (from the page or a terminal) replaces `tracks.csv`.
 //! - `GET /api/frames/N/frame.png`: frame N of the clip. The clip is decoded from its start, or
 //!   onward from the last frame asked for, so stepping forward is cheap; the last few frames are
 //!   kept.
@@ -9,7 +10,8 @@
 //!   key on frame N, keeping every other key (and that frame's other keyed joints); an empty
 //!   `joints` removes frame N's key. Checked as `keys::read` checks the file (joint names,
 //!   inside the frame, frame within the clip) → 400. Written while holding the run folder's lock
-//!   (409 while `track` or `resume` holds it), atomically, and only when the keys change. Only
+//!   (409 at once while `track` or `resume`, from a terminal or the page, holds it), atomically,
+//!   and only when the keys change. Only
 //!   that key's lines change ([`crate::run::keys::set_key`]): the user's comments, blank lines,
 //!   the order and the writing of every other key and joint stay as they were.
 
@@ -92,9 +94,19 @@ impl Api {
         let Ok(f) = n.parse::<u64>() else {
             return Reply::error(404, format!("no frame {n:?}: frames are numbers"));
         };
+        if self.resuming() {
+            return Reply::json(
+                409,
+                &json!({
+                    "error": "a resume started from this page is tracking the run again; the \
+                              frame shows once it is done",
+                    "resuming": true,
+                }),
+            );
+        }
         let rows = match self.tracks() {
             Ok(r) => r,
-            Err(e) => return Reply::error(500, e.to_string()),
+            Err(e) => return self.no_tracks(e),
         };
         let joints: Vec<Value> = rows
             .iter()
@@ -129,6 +141,42 @@ impl Api {
                 "frame": f, "joints": joints, "keyed": keyed, "keys": keys_at,
                 "keys_error": keys_error, "segment": self.segment_number(f),
                 "resume_from": self.resume_number(f),
+            }),
+        )
+    }
+
+    /// The reply when `tracks.csv` cannot be read (`e`): 409 while another process writes the
+    /// run folder (a `resume` from a terminal replaces `tracks.csv`), naming it, or when it is
+    /// missing (saying how to track it again); else 500.
+    fn no_tracks(&self, e: Error) -> Reply {
+        let lock = self.data.dir.join(crate::run::lock::LOCK_FILE);
+        let holder = std::fs::read_to_string(&lock).unwrap_or_default();
+        let holder = holder.trim();
+        if holder.is_empty() {
+            let missing = matches!(&e, Error::Io { error, .. }
+                if error.kind() == std::io::ErrorKind::NotFound);
+            if missing {
+                return Reply::error(
+                    409,
+                    format!(
+                        "{e}; the run has no tracks now (a resume stopped before writing them?): \
+                         `mocap2d resume {}` tracks it again",
+                        self.data.dir.display()
+                    ),
+                );
+            }
+            return Reply::error(500, e.to_string());
+        }
+        Reply::json(
+            409,
+            &json!({
+                "error": format!(
+                    "{holder} is writing this run folder (tracks.csv is being replaced); the \
+                     frame shows once it is done. If no mocap2d is running any more, `mocap2d \
+                     resume {}` finishes the run",
+                    self.data.dir.display()
+                ),
+                "resuming": true,
             }),
         )
     }
@@ -185,6 +233,10 @@ impl Api {
             given[j] = Some(Point::new(x as f32, y as f32));
         }
         // One writer at a time, as for segment files: refused while `track` or `resume` writes.
+        let _turn = match self.save_turn("key") {
+            Ok(t) => t,
+            Err(r) => return r,
+        };
         let _lock = match crate::run::lock::RunLock::acquire(&self.data.dir, "serve (a key)") {
             Ok(l) => l,
             Err(e @ Error::RunFolder { .. }) => {

@@ -7,6 +7,7 @@ pub mod draw;
 pub mod frame_cache;
 pub mod graph;
 pub mod guide;
+mod http;
 pub mod keys_api;
 pub mod overlay;
 pub mod plot;

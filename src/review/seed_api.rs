@@ -25,11 +25,13 @@ use crate::seed::{parse_seeds, read_seeds, to_toml, Seeds, MIN_BOX_PX};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// Tracks the clip (first path) from the seed file (second path), returning a message for the
-/// page. Supplied by the app (`app::serve`); without it the page's button answers 501.
-pub type TrackFn = dyn Fn(&Path, &Path) -> Result<String> + Send + Sync;
+/// page; stops at its next checkpoint (with [`Error::Interrupted`]) once the flag is set.
+/// Supplied by the app (`app::serve`); without it the page's button answers 501.
+pub type TrackFn = dyn Fn(&Path, &Path, &AtomicBool) -> Result<String> + Send + Sync;
 
 /// A clip to seed: the joints to place, where to save them, and the text saved so far.
 pub struct SeedApi {
@@ -48,6 +50,10 @@ pub struct SeedApi {
     /// What this page last wrote to `out`.
     written: Mutex<Option<String>>,
     track: Option<Box<TrackFn>>,
+    /// True while the page's track runs: saves are refused (409) meanwhile.
+    tracking: AtomicBool,
+    /// Set when the server stops: a track under way stops at its next checkpoint.
+    stopping: AtomicBool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -111,6 +117,8 @@ impl SeedApi {
             cache: FrameCache::default(),
             written: Mutex::new(None),
             track,
+            tracking: AtomicBool::new(false),
+            stopping: AtomicBool::new(false),
         })
     }
 
@@ -200,6 +208,14 @@ impl SeedApi {
             return Reply::error(400, e.to_string());
         }
         let mut written = self.written.lock().unwrap_or_else(|e| e.into_inner());
+        // (Checked under the lock, which the track takes once, as it starts.)
+        if self.tracking.load(Ordering::SeqCst) {
+            return Reply::error(
+                409,
+                "tracking from the saved seeds is running; your seeds are not saved: save them \
+                 again once it is done",
+            );
+        }
         let answer = |saved: bool| {
             json!({
                 "saved": saved, "file": self.out.display().to_string(), "frame": edit.frame,
@@ -246,14 +262,36 @@ impl SeedApi {
                 ),
             );
         };
+        if self.stopping.load(Ordering::SeqCst) {
+            return Reply::error(503, "serve is stopping (Ctrl-C); no track starts now");
+        }
+        if self.tracking.swap(true, Ordering::SeqCst) {
+            return Reply::error(
+                409,
+                "tracking is already running from this page; wait for it",
+            );
+        }
+        struct Clear<'a>(&'a AtomicBool);
+        impl Drop for Clear<'_> {
+            fn drop(&mut self) {
+                self.0.store(false, Ordering::SeqCst);
+            }
+        }
+        let _done = Clear(&self.tracking);
+        // Waits for a save under way.
         if !self.saved() {
             return Reply::error(
                 409,
                 "save the seeds first: tracking starts from the saved file",
             );
         }
-        match track(&self.clip, &self.out) {
+        match track(&self.clip, &self.out, &self.stopping) {
             Ok(msg) => Reply::json(200, &json!({ "tracked": true, "message": msg })),
+            Err(Error::Interrupted) => Reply::error(
+                503,
+                "serve is stopping (Ctrl-C); tracking stopped at a checkpoint: carry on with \
+                 `mocap2d resume RUN`",
+            ),
             Err(e) if e.is_user_error() => Reply::error(400, e.to_string()),
             Err(e) => Reply::error(500, e.to_string()),
         }
@@ -261,6 +299,10 @@ impl SeedApi {
 }
 
 impl Pages for SeedApi {
+    fn stopping(&self) {
+        self.stopping.store(true, Ordering::SeqCst);
+    }
+
     fn answer(&self, method: &str, url: &str, body: &[u8]) -> Reply {
         let (path, parts) = path_parts(url);
         if let Some(r) = page_asset(method, path) {

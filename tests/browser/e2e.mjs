@@ -240,6 +240,12 @@ try {
     null, { timeout: 10000 }).catch(() => {});
   const ringed = await page.locator('#kstage circle.kring.keyed[data-name="knee_l"]').count();
   check(ringed === 1, "the keyed knee is drawn ringed");
+  // Drawn where it was dropped (its key), not back on its tracked point: no resume yet.
+  if (km) {
+    const drawn = { x: Number(await knee.getAttribute("cx")), y: Number(await knee.getAttribute("cy")) };
+    check(Math.abs(drawn.x - Number(km[1])) < 1e-3 && Math.abs(drawn.y - Number(km[2])) < 1e-3,
+      `the saved key is drawn where it was dropped: (${drawn.x}, ${drawn.y}), key (${km[1]}, ${km[2]})`);
+  }
   const next = await page.textContent("#keynext");
   check(next.includes("--segment 0"), `the page says what to resume: ${next}`);
   await page.screenshot({ path: shot.replace(/\.png$/, "-key.png"), fullPage: true });

@@ -64,7 +64,7 @@ fn run_with_segments() -> (tempfile::TempDir, PathBuf) {
 
 /// A server on a free port; stopped when dropped.
 pub(crate) struct Served {
-    addr: SocketAddr,
+    pub(crate) addr: SocketAddr,
     stop: Arc<AtomicBool>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
@@ -494,8 +494,9 @@ fn a_save_while_resume_runs_is_refused_and_the_correction_then_survives() {
         assert!(t.elapsed().as_secs() < 60);
         std::thread::sleep(std::time::Duration::from_millis(2));
     }
+    let t = std::time::Instant::now();
     let (st, r) = srv.json("POST", "/api/segments/002", body.as_bytes());
-    let still_running = child.try_wait().unwrap().is_none();
+    assert!(t.elapsed() < std::time::Duration::from_secs(1));
     assert_eq!(st, 409, "{r}");
     let msg = r["error"].as_str().unwrap();
     let pid = format!("pid {}", child.id());
@@ -503,6 +504,26 @@ fn a_save_while_resume_runs_is_refused_and_the_correction_then_survives() {
         msg.contains(&pid) && msg.contains("resume") && msg.contains("not saved"),
         "{msg}"
     );
+    // A key too, at once.
+    let key = br#"{"frame": 120, "joints": {"head": [100, 60]}}"#;
+    let t = std::time::Instant::now();
+    let (st, r) = srv.json("POST", "/api/keys", key);
+    assert!(t.elapsed() < std::time::Duration::from_secs(1));
+    assert_eq!(st, 409, "{r}");
+    assert!(r["error"].as_str().unwrap().contains(&pid), "{r}");
+    assert!(!run.join("keys.toml").exists());
+    // While the resume replaces tracks.csv, a frame says that a resume writes the run (not 500
+    // "tracks.csv: No such file or directory").
+    while run.join("tracks.csv").exists() && child.try_wait().unwrap().is_none() {
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let (st, r) = srv.json("GET", "/api/frames/5", b"");
+    let still_running = child.try_wait().unwrap().is_none();
+    if still_running {
+        assert_eq!(st, 409, "{r}");
+        let msg = r["error"].as_str().unwrap();
+        assert!(msg.contains(&pid) && msg.contains("resume"), "{msg}");
+    }
     assert!(
         still_running,
         "the resume ended before the save; lengthen the clip"

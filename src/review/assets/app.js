@@ -289,9 +289,10 @@ async function resume() {
     method: "POST", headers: { "Content-Type": "application/json" }, body: "{}",
   });
   if (!r.ok) { say(r.body ? r.body.error : `resume failed (${r.status})`, "error"); return; }
-  say(r.body.message, "ok");
+  // Reopening the segment clears the message line: the resume's answer is said after it.
   await loadRun();
   await openSegment(seg.id);
+  say(r.body.message, "ok");
 }
 
 $("#save").onclick = save;

@@ -38,14 +38,22 @@ async function openFrame(n) {
   const same = kframe && kframe.frame === n;
   if (!same) lastSaved = null;
   kframe = r.body;
-  kjoints = kframe.joints.map((j) => ({ ...j, moved: false }));
+  // A keyed joint is drawn where its key puts it: a key saved but not yet tracked with (no
+  // resume since) is elsewhere than the tracked point, which `tracked` keeps.
+  kjoints = kframe.joints.map((j) => {
+    const k = (kframe.keys || {})[j.name];
+    if (!k) return { ...j, moved: false };
+    return { ...j, x: k[0], y: k[1], tracked: { x: j.x, y: j.y }, moved: false };
+  });
+  const pending = kjoints.filter((j) => j.tracked && Math.hypot(j.x - j.tracked.x, j.y - j.tracked.y) > 0.5);
   $("#frameno").value = n;
   history.replaceState(null, "", `#f${n}`);
   $("#editor").hidden = true;
   $("#keyeditor").hidden = false;
   const seg = segmentOf(n);
   $("#ktitle").textContent = `frame ${n}` + (seg ? ` (segment ${seg.k})` : "") +
-    (kframe.keyed.length ? `, keyed: ${kframe.keyed.join(", ")}` : "");
+    (kframe.keyed.length ? `, keyed: ${kframe.keyed.join(", ")}` : "") +
+    (pending.length ? "; not tracked with yet: resume (a dashed line joins the tracked point to its key)" : "");
   if (kframe.keys_error) say(`keys.toml: ${kframe.keys_error}`, "error");
   else if (!same) say("");
   buildKeyStage();
@@ -99,6 +107,16 @@ function kupdate() {
   }
   const bones = svg.querySelector("#kbones");
   bones.textContent = "";
+  // From where tracking put a keyed joint to its key, when they differ.
+  for (const j of kjoints) {
+    if (!j.tracked || Math.hypot(j.x - j.tracked.x, j.y - j.tracked.y) <= 0.5) continue;
+    const l = document.createElementNS(SVG, "line");
+    l.setAttribute("class", "kpull");
+    l.dataset.name = j.name;
+    l.setAttribute("x1", j.tracked.x); l.setAttribute("y1", j.tracked.y);
+    l.setAttribute("x2", j.x); l.setAttribute("y2", j.y);
+    bones.appendChild(l);
+  }
   for (const j of kjoints) {
     const p = parents[j.name] && at[parents[j.name]];
     if (!p) continue;
@@ -192,9 +210,9 @@ async function resumeKeyed() {
   });
   if (!r.ok) { say(r.body ? r.body.error : `resume failed (${r.status})`, "error"); return; }
   lastSaved = null;
-  say(r.body.message, "ok");
   await loadRun();
   await openFrame(kframe.frame);
+  say(r.body.message, "ok");
 }
 
 $("#goframe").onsubmit = (ev) => { ev.preventDefault(); openFrame(Number($("#frameno").value)); };
