@@ -119,8 +119,7 @@ fn disagreement(seeds: &Seeds, lms: &ClipLandmarks) -> Option<String> {
     let Some(Some(lm)) = lms.get(f) else {
         return Some(format!("the network sees no person on the seed frame {f}"));
     };
-    let mid = |a: usize, b: usize| Point::from((lm[a].pos.coords + lm[b].pos.coords) / 2.0);
-    let torso = (mid(11, 12) - mid(23, 24)).norm().max(1.0);
+    let torso = pose::torso(lm).max(1.0);
     let mut d: Vec<f32> = seeds
         .joints
         .iter()
@@ -194,8 +193,7 @@ pub fn seed(opts: &SeedOptions) -> Result<SeedSummary> {
         lm = pose::landmarks_both_ways(&mut engine, &img, &lm.next_roi)?;
     }
     let pts = &lm.points;
-    let mid = |a: usize, b: usize| Point::from((pts[a].pos.coords + pts[b].pos.coords) / 2.0);
-    let torso = (mid(11, 12) - mid(23, 24)).norm();
+    let torso = pose::torso(pts);
     let side = ((torso * 0.15).round() as u32).clamp(crate::seed::MIN_BOX_PX, 200);
     let parents: [(&str, Option<&str>); 17] = [
         ("left_hip", None),

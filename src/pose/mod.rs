@@ -24,6 +24,12 @@ pub use blazepose::Landmarks;
 /// Below this, the landmark network's person score means the crop has lost the person.
 const MIN_PERSON: f32 = 0.5;
 
+/// The torso's length (px) in a frame's landmarks: shoulder centre to hip centre.
+pub fn torso(points: &[Landmark]) -> f32 {
+    let mid = |a: usize, b: usize| (points[a].pos.coords + points[b].pos.coords) / 2.0;
+    (mid(11, 12) - mid(23, 24)).norm()
+}
+
 /// Which person to follow when the detector finds several.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Pick {

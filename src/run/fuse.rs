@@ -55,10 +55,7 @@ fn torso(lms: &ClipLandmarks) -> Option<f32> {
     let mut v: Vec<f32> = lms
         .iter()
         .flatten()
-        .map(|p| {
-            let mid = |a: usize, b: usize| Point::from((p[a].pos.coords + p[b].pos.coords) / 2.0);
-            (mid(11, 12) - mid(23, 24)).norm()
-        })
+        .map(|p| crate::pose::torso(p))
         .filter(|d| d.is_finite() && *d > 1.0)
         .collect();
     if v.is_empty() {

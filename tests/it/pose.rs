@@ -113,6 +113,24 @@ fn seed_refuses_a_box_with_no_one_in_it_and_writes_nothing() {
     assert!(!out.exists());
 }
 
+/// `mocap2d track CLIP --seeds SEEDS --out OUT -q` with the environment variable `var` set and
+/// `extra` flags.
+fn track_with(
+    var: &str,
+    value: &Path,
+    clip: &Path,
+    seeds: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_mocap2d"))
+        .env(var, value)
+        .args(["track", s(clip), "--seeds", s(seeds), "--out", s(out), "-q"])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
 /// `track` with the pose engine or a model that cannot be had: exit 2, the path and the fix,
 /// and no run folder.
 #[test]
@@ -157,19 +175,7 @@ fn a_missing_model_or_engine_is_refused_before_anything_is_written() {
     ];
     for (var, what, value, says) in cases {
         let out = tmp.path().join(format!("{what}.mocap"));
-        let o = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-            .env(var, value)
-            .args([
-                "track",
-                s(&clip),
-                "--seeds",
-                s(&seeds),
-                "--out",
-                s(&out),
-                "-q",
-            ])
-            .output()
-            .unwrap();
+        let o = track_with(var, value, &clip, &seeds, &out, &[]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{what}: {err}");
         assert!(err.contains(says), "{what}: {err}");
@@ -177,20 +183,7 @@ fn a_missing_model_or_engine_is_refused_before_anything_is_written() {
         assert!(!out.exists(), "{what}: nothing written");
         // The same with the cue off tracks.
         if what == "no-engine" {
-            let o = Command::new(env!("CARGO_BIN_EXE_mocap2d"))
-                .env(var, value)
-                .args([
-                    "track",
-                    s(&clip),
-                    "--seeds",
-                    s(&seeds),
-                    "--out",
-                    s(&out),
-                    "-q",
-                ])
-                .args(["--pose", "off"])
-                .output()
-                .unwrap();
+            let o = track_with(var, value, &clip, &seeds, &out, &["--pose", "off"]);
             assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
             assert!(!out.join("pose.csv").exists());
         }
