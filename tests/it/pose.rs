@@ -105,6 +105,12 @@ fn seed_puts_every_joint_of_the_dancer_within_20_px_of_the_labels() {
 fn seed_refuses_a_box_with_no_one_in_it_and_writes_nothing() {
     let img = root().join("tests/it/data/pose-frame.png");
     let tmp = tempfile::tempdir().unwrap();
+    // A folder of frames is a clip (a single picture is not).
+    let clip = tmp.path().join("frames");
+    std::fs::create_dir(&clip).unwrap();
+    std::fs::copy(&img, clip.join("0001.png")).unwrap();
+    std::fs::copy(&img, clip.join("0002.png")).unwrap();
+    let img = clip;
     let out = tmp.path().join("s.toml");
     let o = run(&["seed", s(&img), "--out", s(&out), "--box", "0,0,10,10"]);
     assert_eq!(o.status.code(), Some(2));
