@@ -101,16 +101,22 @@ fn seed_puts_every_joint_of_the_dancer_within_20_px_of_the_labels() {
     assert!(text.contains("parent = \"left_hip\""), "{text}");
 }
 
+/// A clip of `n` copies of the bundled frame, as a folder of numbered PNGs in `dir` (a single
+/// picture is no clip).
+fn frames_clip(dir: &Path, n: usize) -> std::path::PathBuf {
+    let img = root().join("tests/it/data/pose-frame.png");
+    let clip = dir.join("frames");
+    std::fs::create_dir(&clip).unwrap();
+    for i in 1..=n {
+        std::fs::copy(&img, clip.join(format!("{i:04}.png"))).unwrap();
+    }
+    clip
+}
+
 #[test]
 fn seed_refuses_a_box_with_no_one_in_it_and_writes_nothing() {
-    let img = root().join("tests/it/data/pose-frame.png");
     let tmp = tempfile::tempdir().unwrap();
-    // A folder of frames is a clip (a single picture is not).
-    let clip = tmp.path().join("frames");
-    std::fs::create_dir(&clip).unwrap();
-    std::fs::copy(&img, clip.join("0001.png")).unwrap();
-    std::fs::copy(&img, clip.join("0002.png")).unwrap();
-    let img = clip;
+    let img = frames_clip(tmp.path(), 2);
     let out = tmp.path().join("s.toml");
     let o = run(&["seed", s(&img), "--out", s(&out), "--box", "0,0,10,10"]);
     assert_eq!(o.status.code(), Some(2));
@@ -141,13 +147,9 @@ fn track_with(
 /// and no run folder.
 #[test]
 fn a_missing_model_or_engine_is_refused_before_anything_is_written() {
-    let img = root().join("tests/it/data/pose-frame.png");
     let tmp = tempfile::tempdir().unwrap();
-    // A person's seed file for the bundled frame (a folder of one frame is a clip).
-    let clip = tmp.path().join("frames");
-    std::fs::create_dir(&clip).unwrap();
-    std::fs::copy(&img, clip.join("0001.png")).unwrap();
-    std::fs::copy(&img, clip.join("0002.png")).unwrap();
+    // A person's seed file for the bundled frame.
+    let clip = frames_clip(tmp.path(), 2);
     let seeds = tmp.path().join("s.toml");
     let o = run(&["seed", s(&clip), "--out", s(&seeds)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -199,13 +201,8 @@ fn a_missing_model_or_engine_is_refused_before_anything_is_written() {
 /// A person's skeleton runs the cue (its landmarks kept in `pose.csv`); the flies' does not.
 #[test]
 fn a_persons_seeds_run_the_cue_and_a_flys_do_not() {
-    let img = root().join("tests/it/data/pose-frame.png");
     let tmp = tempfile::tempdir().unwrap();
-    let clip = tmp.path().join("frames");
-    std::fs::create_dir(&clip).unwrap();
-    for i in 1..=3 {
-        std::fs::copy(&img, clip.join(format!("{i:04}.png"))).unwrap();
-    }
+    let clip = frames_clip(tmp.path(), 3);
     let seeds = tmp.path().join("s.toml");
     assert!(run(&["seed", s(&clip), "--out", s(&seeds)])
         .status
