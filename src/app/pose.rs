@@ -44,13 +44,15 @@ pub fn start(
 ) -> Result<PosePass> {
     let mut source = decode::open(clip, fps)?;
     let pick = around(seeds);
+    let seed_frame = seeds.frame as usize;
     let handle = std::thread::Builder::new()
         .name("pose".into())
         .spawn(move || {
             let mut follower = Follower::new(&mut engine, pick);
             let mut out = ClipLandmarks::new();
             while let Some(frame) = source.next_frame()? {
-                out.push(follower.next(&frame)?);
+                let look = pose::looks_at(out.len(), seed_frame);
+                out.push(if look { follower.next(&frame)? } else { None });
             }
             Ok(out)
         })

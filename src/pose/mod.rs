@@ -24,6 +24,15 @@ pub use blazepose::Landmarks;
 /// Below this, the landmark network's person score means the crop has lost the person.
 const MIN_PERSON: f32 = 0.5;
 
+/// The network looks at every `LOOK_EVERY`-th frame of a clip, and at the seed frame; the
+/// fusion carries the frames between (docs/method.md §2.8).
+pub const LOOK_EVERY: usize = 2;
+
+/// Whether the network looks at `frame` of a clip whose seeds are on `seed_frame`.
+pub fn looks_at(frame: usize, seed_frame: usize) -> bool {
+    frame % LOOK_EVERY == 0 || frame == seed_frame
+}
+
 /// The torso's length (px) in a frame's landmarks: shoulder centre to hip centre.
 pub fn torso(points: &[Landmark]) -> f32 {
     let mid = |a: usize, b: usize| (points[a].pos.coords + points[b].pos.coords) / 2.0;
@@ -152,7 +161,8 @@ impl<'e> Follower<'e> {
     }
 }
 
-/// The landmarks of a clip, one entry a frame (`None` where the network saw no one).
+/// The landmarks of a clip, one entry a frame (`None` where the network saw no one, or did not
+/// look: see [`looks_at`]).
 pub type ClipLandmarks = Vec<Option<Vec<Landmark>>>;
 
 /// `pose.csv`: `frame,landmark,x,y,visibility,presence`, 33 rows a frame where the network saw

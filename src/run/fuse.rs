@@ -16,7 +16,7 @@ use crate::error::Result;
 use crate::geom::Point;
 use crate::pose::blazepose::Landmark;
 use crate::pose::names;
-use crate::pose::ClipLandmarks;
+use crate::pose::{ClipLandmarks, LOOK_EVERY};
 use crate::run::tracks::{read_tracks, TrackRow, HEADER};
 use crate::track::Status;
 use nalgebra::{Matrix3, Vector3};
@@ -117,9 +117,10 @@ pub fn fuse(frames: &mut [Vec<TrackRow>], names_: &[String], lms: &ClipLandmarks
         .map(|f| lms.get(f.first()?.frame as usize)?.as_ref())
         .collect();
     let lm_at = |f: usize| at[f];
-    // The sides, as the nearest keyed frame reads them.
+    let near = nearest_looks(&at);
+    // The sides, as the nearest keyed frame reads them (through the network's nearest look).
     let keyed: Vec<(usize, bool)> = (0..n)
-        .filter_map(|f| Some((f, crossed(&frames[f], &map, lm_at(f)?)?)))
+        .filter_map(|f| Some((f, crossed(&frames[f], &map, lm_at(near[f]?)?)?)))
         .collect();
     let swap: Vec<bool> = (0..n)
         .map(|f| {
@@ -145,12 +146,15 @@ pub fn fuse(frames: &mut [Vec<TrackRow>], names_: &[String], lms: &ClipLandmarks
         for f in 0..n {
             let row = &frames[f][j];
             let status = Status::from_word(&row.status).unwrap_or(Status::Lost);
-            let net = lm_at(f).map(|p| p[if swap[f] { names::mirror(l) } else { l }]);
+            let side = |p: &Vec<Landmark>| p[if swap[f] { names::mirror(l) } else { l }];
             meas.push(Measurements {
                 key: (status == Status::Seed).then(|| Point::new(row.x, row.y)),
-                tracker: (status.seen() && status != Status::Seed)
+                // The tracker carries the frames where the network sees no one (not those
+                // between two of its looks that saw the person).
+                tracker: (status.seen() && status != Status::Seed && near[f].is_none())
                     .then(|| Point::new(row.x, row.y)),
-                net,
+                net: lm_at(f).map(side),
+                near: near[f].and_then(lm_at).map(side),
             });
         }
         let fused = smooth(&meas, torso);
@@ -161,19 +165,19 @@ pub fn fuse(frames: &mut [Vec<TrackRow>], names_: &[String], lms: &ClipLandmarks
                 continue;
             }
             let Some(p) = fused[f] else { continue };
-            let vis = m.net.map_or(0.0, |l| l.visibility);
+            let vis = m.near.map_or(0.0, |l| l.visibility);
             let agree = m
                 .tracker
                 .map(|t| (t - p).norm() <= AGREE * torso)
                 .unwrap_or(false);
-            let status = match (m.net.is_some() && vis >= SURE, agree) {
+            let status = match (m.near.is_some() && vis >= SURE, agree) {
                 (true, true) => Status::Ok,
                 (true, false) | (false, true) => Status::Low,
                 (false, false) => Status::Occluded,
             };
             row.x = p.x;
             row.y = p.y;
-            row.score = if m.net.is_some() {
+            row.score = if m.near.is_some() {
                 vis
             } else {
                 row.score.min(0.5)
@@ -187,7 +191,36 @@ pub fn fuse(frames: &mut [Vec<TrackRow>], names_: &[String], lms: &ClipLandmarks
 struct Measurements {
     key: Option<Point>,
     tracker: Option<Point>,
+    /// The network's landmark on this frame.
     net: Option<Landmark>,
+    /// The network's landmark on this frame or, between two of its looks that saw the person,
+    /// on the nearer of them (for the side and the visibility).
+    near: Option<Landmark>,
+}
+
+/// For each frame, the frame whose landmarks stand for it: itself where the network saw the
+/// person; where it did not look, or looked and saw no one, and looks that saw the person lie
+/// on both sides fewer than [`LOOK_EVERY`] frames away (or before it, where the clip ends
+/// before the next look was due), the nearer of them (the earlier on a tie); else `None`.
+fn nearest_looks(at: &[Option<&Vec<Landmark>>]) -> Vec<Option<usize>> {
+    let n = at.len();
+    (0..n)
+        .map(|f| {
+            if at[f].is_some() {
+                return Some(f);
+            }
+            let before = (f.saturating_sub(LOOK_EVERY - 1)..f)
+                .rev()
+                .find(|&g| at[g].is_some())?;
+            let after = (f + 1..n.min(f + LOOK_EVERY)).find(|&g| at[g].is_some());
+            match after {
+                Some(a) if a - f < f - before => Some(a),
+                Some(_) => Some(before),
+                // The clip ends before the next look was due.
+                None => (f + LOOK_EVERY > n).then_some(before),
+            }
+        })
+        .collect()
 }
 
 /// The smoothed positions of a joint (see the module's notes), `None` before its first
@@ -241,9 +274,7 @@ fn smooth(meas: &[Measurements], torso: f32) -> Vec<Option<Point>> {
                 let r = (NET_SIGMA * torso / vis).powi(2);
                 update(Vector3::new(1.0, 0.0, 1.0), get(l.pos), r);
             }
-            // The tracker carries the frames where the network sees no one.
-            let unsure = m.net.is_none();
-            if let (Some(tp), true) = (m.tracker, unsure) {
+            if let (Some(tp), None) = (m.tracker, m.net) {
                 update(
                     Vector3::new(1.0, 0.0, 0.0),
                     get(tp),
@@ -352,6 +383,37 @@ mod tests {
         assert!(err(70) < err(90), "{} {}", err(70), err(90));
         // Far from any key: the network's reading (the tracker, 40 px off, does not drag it).
         assert!((err(100) - 12.0).abs() < 2.0, "{}", err(100));
+    }
+
+    #[test]
+    fn frames_between_looks_stand_on_the_nearer_look_and_a_gap_on_none() {
+        let p = vec![];
+        let at: Vec<Option<&Vec<Landmark>>> =
+            [1, 0, 1, 0, 0, 0, 1, 0].iter().map(|&s| (s == 1).then_some(&p)).collect();
+        let want = match LOOK_EVERY {
+            2 => vec![Some(0), Some(0), Some(2), None, None, None, Some(6), Some(6)],
+            _ => return,
+        };
+        assert_eq!(nearest_looks(&at), want);
+    }
+
+    #[test]
+    fn between_looks_the_tracker_does_not_pull_and_the_status_follows_the_looks() {
+        // The network looks at every other frame; the tracker is 40 px off on the others.
+        let (mut frames, names_, mut lms, truth) = still_body(120, 60);
+        for (f, l) in lms.iter_mut().enumerate() {
+            if f % 2 == 1 {
+                *l = None;
+            }
+        }
+        fuse(&mut frames, &names_, &lms);
+        // Far from the keys, to the clip's last frame (which is not a look): the network's
+        // reading, 12 px right of the truth, not pulled toward the tracker's 40 px left.
+        for f in (101..120).step_by(2) {
+            let off = frames[f][1].x - truth.x;
+            assert!((off - 12.0).abs() < 2.0, "frame {f}: {off}");
+            assert_ne!(frames[f][1].status, "occluded", "frame {f}");
+        }
     }
 
     #[test]

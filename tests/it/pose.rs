@@ -219,10 +219,12 @@ fn a_persons_seeds_run_the_cue_and_a_flys_do_not() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let pose_csv = std::fs::read_to_string(person.join("pose.csv")).unwrap();
+    let looks = (0..3).filter(|&f| mocap2d::pose::looks_at(f, 0)).count();
+    assert_eq!(looks, 2, "frames 0 and 2");
     assert_eq!(
         pose_csv.lines().count(),
-        1 + 3 * 33,
-        "33 landmarks on each of 3 frames"
+        1 + looks * 33,
+        "33 landmarks on each frame the network looks at"
     );
 
     // The same frames under a fly's names: no cue.
