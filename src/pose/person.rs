@@ -244,7 +244,7 @@ mod tests {
             .iter()
             .map(|s| s.to_string())
             .collect();
-        assert!(propose(&points(), &fly, &vec![Point::origin(); 6], 200, 100).is_none());
+        assert!(propose(&points(), &fly, &[Point::origin(); 6], 200, 100).is_none());
     }
 
     #[test]
