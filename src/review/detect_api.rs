@@ -58,7 +58,10 @@ impl Api {
         if let Some(n) = self.clip_frames().filter(|&n| f >= n) {
             return Reply::error(
                 404,
-                format!("frame {f} is beyond the clip: it has {n} frames (0 to {})", n - 1),
+                format!(
+                    "frame {f} is beyond the clip: it has {n} frames (0 to {})",
+                    n - 1
+                ),
             );
         }
         if self.resuming() {

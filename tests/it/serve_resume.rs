@@ -11,7 +11,12 @@ use std::time::{Duration, Instant};
 
 /// One request to `addr` (JSON body), as the page sends it: the status (`None` when the
 /// connection closed without an answer) and the body.
-pub(crate) fn request(addr: SocketAddr, method: &str, target: &str, body: &str) -> (Option<u16>, String) {
+pub(crate) fn request(
+    addr: SocketAddr,
+    method: &str,
+    target: &str,
+    body: &str,
+) -> (Option<u16>, String) {
     let mut s = TcpStream::connect(addr).unwrap();
     s.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
     let head = format!(
