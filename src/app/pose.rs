@@ -140,9 +140,6 @@ fn disagreement(seeds: &Seeds, lms: &ClipLandmarks) -> Option<String> {
     })
 }
 
-/// How many times `seed` looks again from the crop the landmarks call for.
-const SEED_LOOKS: usize = 1;
-
 /// Options of `mocap2d seed`.
 #[derive(Debug, Clone)]
 pub struct SeedOptions {
@@ -168,32 +165,26 @@ pub struct SeedSummary {
 pub fn seed(opts: &SeedOptions) -> Result<SeedSummary> {
     let mut engine = OrtEngine::load(&models_dir())?;
     let img = decode::read_frame(&opts.clip, opts.fps, opts.frame)?;
-    let found = pose::detect(&mut engine, &img)?;
     let pick = match opts.within {
         Some([x, y, w, h]) => Pick::Inside(Point::new(x, y), Point::new(x + w, y + h)),
         None => Pick::Largest,
     };
-    let Some(person) = pose::choose(&found, pick) else {
+    let found = pose::person::find(&mut engine, &img, &[pick])?;
+    let Some(lm) = found.landmarks else {
         return Err(Error::Clip {
             path: opts.clip.clone(),
-            msg: match (found.len(), opts.within) {
-                (0, _) => format!(
+            msg: match found.people {
+                0 => format!(
                     "frame {}: the pose network finds no person; try another --frame",
                     opts.frame
                 ),
-                (n, _) => format!(
+                n => format!(
                     "frame {}: none of the {n} people found is inside --box; widen the box",
                     opts.frame
                 ),
             },
         });
     };
-    // Further looks from the crop the landmarks call for, as on the frames of a clip: the
-    // detector's box is rough.
-    let mut lm = pose::landmarks(&mut engine, &img, &person.roi())?;
-    for _ in 0..SEED_LOOKS {
-        lm = pose::landmarks_both_ways(&mut engine, &img, &lm.next_roi)?;
-    }
     let pts = &lm.points;
     let torso = pose::torso(pts);
     let side = ((torso * 0.15).round() as u32).clamp(crate::seed::MIN_BOX_PX, 200);
@@ -254,7 +245,7 @@ pub fn seed(opts: &SeedOptions) -> Result<SeedSummary> {
     crate::seed::parse_seeds(&text, &opts.out)?;
     crate::atomic::write(&opts.out, text.as_bytes())?;
     Ok(SeedSummary {
-        people: found.len(),
+        people: found.people,
         joints: joints.len(),
         unsure,
     })

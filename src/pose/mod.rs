@@ -10,6 +10,7 @@
 pub mod blazepose;
 pub mod engine;
 pub mod names;
+pub mod person;
 
 use crate::error::{Error, Result};
 use crate::geom::Point;

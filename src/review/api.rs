@@ -38,6 +38,8 @@ pub struct Api {
     resume: Option<Box<ResumeFn>>,
     /// Any frame for the key editor: see [`super::keys_api`].
     pub(super) any_frame: super::frame_cache::FrameCache,
+    /// The pose engine of the Detect button: see [`super::detect_api`].
+    pub(super) detector: super::detect_api::Detector,
     /// What the page is writing now.
     writes: Writes,
 }
@@ -93,6 +95,7 @@ impl Api {
             frames: Mutex::new(BTreeMap::new()),
             resume,
             any_frame: Default::default(),
+            detector: Default::default(),
             writes: Writes::default(),
         })
     }
@@ -231,6 +234,7 @@ impl Api {
                 "seed_frame": m.seed_frame, "segment_len": m.segment_len,
                 "first": self.data.first, "end": self.data.end(),
                 "suggested": self.suggested(),
+                "no_detect": self.no_detect(),
             }),
         )
     }

@@ -34,7 +34,7 @@ struct KeyBody {
 }
 
 impl Api {
-    fn names(&self) -> Vec<String> {
+    pub(super) fn names(&self) -> Vec<String> {
         self.data
             .seeds
             .joints
@@ -44,7 +44,7 @@ impl Api {
     }
 
     /// Frames in the clip, when the run knows.
-    fn clip_frames(&self) -> Option<u64> {
+    pub(super) fn clip_frames(&self) -> Option<u64> {
         Some(self.data.manifest.frames).filter(|&n| n > 0)
     }
 
@@ -70,7 +70,7 @@ impl Api {
     }
 
     /// `tracks.csv` now (read again when its time or size has changed).
-    fn tracks(&self) -> crate::error::Result<Arc<Vec<TrackRow>>> {
+    pub(super) fn tracks(&self) -> crate::error::Result<Arc<Vec<TrackRow>>> {
         let path = self.data.dir.join("tracks.csv");
         let meta = std::fs::metadata(&path).map_err(|e| Error::io(&path, e))?;
         let stamp = (meta.modified().ok(), meta.len());
@@ -148,7 +148,7 @@ impl Api {
     /// The reply when `tracks.csv` cannot be read (`e`): 409 while another process writes the
     /// run folder (a `resume` from a terminal replaces `tracks.csv`), naming it, or when it is
     /// missing (saying how to track it again); else 500.
-    fn no_tracks(&self, e: Error) -> Reply {
+    pub(super) fn no_tracks(&self, e: Error) -> Reply {
         let lock = self.data.dir.join(crate::run::lock::LOCK_FILE);
         let holder = std::fs::read_to_string(&lock).unwrap_or_default();
         let holder = holder.trim();

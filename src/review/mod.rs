@@ -3,6 +3,7 @@
 
 pub mod api;
 pub mod data;
+pub mod detect_api;
 pub mod draw;
 pub mod frame_cache;
 pub mod graph;

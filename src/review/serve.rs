@@ -10,6 +10,8 @@
 //!   resume). While it runs, saves and frames answer 409 at once (see [`super::api`]).
 //! - `GET /api/frames/N`, `GET /api/frames/N/frame.png`: any tracked frame, its joints and keys.
 //! - `POST /api/keys`: save a key on any frame into `keys.toml` (see [`super::keys_api`]).
+//! - `POST /api/frames/N/detect`: the pose network's proposal of a key on frame N, written
+//!   nowhere (see [`super::detect_api`]).
 //!
 //! The seeding page of a bare clip (`serve CLIP --seeds-out FILE`) answers `GET /api/run`,
 //! `GET /api/frames/N/frame.png`, `POST /api/seeds` and `POST /api/seeds/track` instead (see
@@ -181,11 +183,12 @@ pub fn route(api: &Api, method: &str, url: &str, body: &[u8]) -> Reply {
         ["", "api", "frames", n] if get => api.frame_info(n),
         ["", "api", "frames", n, "frame.png"] if get => api.any_frame_png(n),
         ["", "api", "keys"] if post => api.save_key(body),
+        ["", "api", "frames", n, "detect"] if post => api.detect(n),
         ["", "api", "run"] => wrong(),
         ["", "api", "segments", _] | ["", "api", "segments", _, "frame.png" | "resume"] => wrong(),
-        ["", "api", "frames", _] | ["", "api", "frames", _, "frame.png"] | ["", "api", "keys"] => {
-            wrong()
-        }
+        ["", "api", "frames", _]
+        | ["", "api", "frames", _, "frame.png" | "detect"]
+        | ["", "api", "keys"] => wrong(),
         _ => Reply::error(404, format!("no such page: {path}")),
     }
 }

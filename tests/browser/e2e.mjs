@@ -5,7 +5,8 @@
 // by keys and buttons, drag the left knee, save a key and check keys.toml holds it. Then the
 // seeding page of the bare clip (`serve clip.mp4 --skeleton joints.toml --seeds-out first.toml`):
 // go to frame 20, step by keys, drag the head, save the seeds, check the file and that `track`
-// reads it, and track from the page. Leaves screenshots.
+// reads it, and track from the page. Detect: disabled on the walk (not a person); on a person's
+// run of the bundled frame, its proposal shows unsaved and saves as a key. Leaves screenshots.
 //
 //   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default cargo's target/debug/mocap2d;
 //                                          CHROMIUM: default /usr/bin/chromium;
@@ -101,6 +102,7 @@ async function serve(...args) {
 }
 const [server, url] = await serve("r.mocap");
 let seeder = null;
+let detecter = null;
 
 const browser = await chromium.launch({
   executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
@@ -250,6 +252,12 @@ try {
   check(next.includes("--segment 0"), `the page says what to resume: ${next}`);
   await page.screenshot({ path: shot.replace(/\.png$/, "-key.png"), fullPage: true });
 
+  // The walk's joints are not a person's: Detect is disabled, its tooltip saying why.
+  const det = await page.evaluate(() => ({ disabled: document.querySelector("#detect").disabled,
+    title: document.querySelector("#detect").title }));
+  check(det.disabled && det.title.includes("do not name a person's body"),
+    `Detect disabled on the walk, saying why: ${JSON.stringify(det)}`);
+
   // The page's resume for that segment tracks with the key: the knee sits on it, as a seed.
   await page.click("#resumekey");
   await page.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className)
@@ -261,6 +269,44 @@ try {
   check(km && row && Math.abs(Number(row[2]) - Number(km[1])) < 1e-3
     && Math.abs(Number(row[3]) - Number(km[2])) < 1e-3 && row[6] === "seed",
     `after resume, knee_l on frame 12 is on its key as a seed: ${row}`);
+
+  // Detect on a person's run (4 copies of the bundled frame, seeded by `mocap2d seed`): the
+  // network's joints appear as moved but unsaved; one adjusted, Save key keys them all.
+  fs.mkdirSync(path.join(work, "person"));
+  for (let i = 1; i <= 4; i++) {
+    fs.copyFileSync(path.join(root, "tests/it/data/pose-frame.png"), path.join(work, `person/000${i}.png`));
+  }
+  run("seed", "person", "--out", "person.toml");
+  run("track", "person", "--seeds", "person.toml", "--out", "p.mocap", "-q");
+  let personUrl;
+  [detecter, personUrl] = await serve("p.mocap");
+  const dp = await browser.newPage({ viewport: { width: 1000, height: 720 } });
+  dp.on("pageerror", (e) => check(false, `no script error on the person's page (${e.message})`));
+  await dp.goto(`${personUrl}#f2`);
+  const nose = dp.locator('#kstage circle.kpoint[data-name="nose"]');
+  await nose.waitFor();
+  await dp.waitForFunction(() => !document.querySelector("#detect").disabled);
+  await dp.click("#detect");
+  const busy = await dp.textContent("#detect");
+  await dp.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className)
+    && !/^Detecting/.test(document.querySelector("#message").textContent), null, { timeout: 60000 });
+  const dmsg = await dp.textContent("#message");
+  check(dmsg.startsWith("Proposed 17 joints on frame 2"), `Detect answers (button read "${busy}"): ${dmsg}`);
+  const proposed = await dp.locator("#kstage circle.kpoint.moved.proposed").count();
+  check(proposed === 17 && !(await dp.isDisabled("#savekey")),
+    `the proposal is drawn as 17 unsaved moved joints (${proposed}), Save key enabled`);
+  check(!fs.existsSync(path.join(work, "p.mocap/keys.toml")), "Detect saved nothing");
+  await dp.screenshot({ path: shot.replace(/\.png$/, "-detect.png"), fullPage: true });
+  const nb = await settledBox(nose);
+  await drag(dp, nb.x + nb.width / 2, nb.y + nb.height / 2, 12, 0);
+  await dp.click("#savekey");
+  await dp.waitForFunction(() => /Saved keys|Not saved/.test(document.querySelector("#message").textContent));
+  const psaved = await dp.textContent("#message");
+  const pkeys = fs.existsSync(path.join(work, "p.mocap/keys.toml"))
+    ? fs.readFileSync(path.join(work, "p.mocap/keys.toml"), "utf8") : "";
+  check(psaved.startsWith("Saved keys.toml (key on frame 2: left_hip") && /^frame = 2$/m.test(pkeys)
+    && (pkeys.match(/^[a-z_]+ = \[/gm) || []).length === 17,
+  `the adjusted proposal saves as frame 2's key of 17 joints: ${psaved}`);
 
   // The first seeds of the bare clip: the skeleton's rectangles over frame 20, the head dragged.
   let seedUrl;
@@ -325,6 +371,7 @@ try {
   await browser.close();
   server.kill();
   if (seeder) seeder.kill();
+  if (detecter) detecter.kill();
   fs.rmSync(work, { recursive: true, force: true });
 }
 console.log(`browser: ${failures ? 0 : 1} passed, ${failures ? 1 : 0} failed`);

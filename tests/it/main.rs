@@ -30,6 +30,7 @@ mod scale;
 mod seeds;
 mod segments;
 mod serve;
+mod serve_detect;
 mod serve_http;
 mod serve_keys;
 mod serve_resume;

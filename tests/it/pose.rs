@@ -10,7 +10,7 @@ use std::process::Command;
 
 /// The bundled frame (the dance's frame 0 at half size, `tests/it/data/pose-frame.png`) and its
 /// labels from the dance's `gt.csv` (another network's, halved): the joints a front view shows.
-const FRAME_LABELS: [(&str, f32, f32); 13] = [
+pub(crate) const FRAME_LABELS: [(&str, f32, f32); 13] = [
     ("nose", 96.9, 115.0),
     ("left_eye", 106.5, 107.7),
     ("right_eye", 86.9, 107.1),
@@ -103,7 +103,7 @@ fn seed_puts_every_joint_of_the_dancer_within_20_px_of_the_labels() {
 
 /// A clip of `n` copies of the bundled frame, as a folder of numbered PNGs in `dir` (a single
 /// picture is no clip).
-fn frames_clip(dir: &Path, n: usize) -> std::path::PathBuf {
+pub(crate) fn frames_clip(dir: &Path, n: usize) -> std::path::PathBuf {
     let img = root().join("tests/it/data/pose-frame.png");
     let clip = dir.join("frames");
     std::fs::create_dir(&clip).unwrap();

@@ -11,7 +11,12 @@ use std::time::{Duration, Instant};
 
 /// One request to `addr` (JSON body), as the page sends it: the status (`None` when the
 /// connection closed without an answer) and the body.
-fn request(addr: SocketAddr, method: &str, target: &str, body: &str) -> (Option<u16>, String) {
+pub(crate) fn request(
+    addr: SocketAddr,
+    method: &str,
+    target: &str,
+    body: &str,
+) -> (Option<u16>, String) {
     let mut s = TcpStream::connect(addr).unwrap();
     s.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
     let head = format!(
@@ -30,7 +35,7 @@ fn request(addr: SocketAddr, method: &str, target: &str, body: &str) -> (Option<
 }
 
 /// `request`, timed, its body as JSON.
-fn timed(
+pub(crate) fn timed(
     addr: SocketAddr,
     method: &str,
     target: &str,
@@ -71,7 +76,7 @@ fn segment_body(addr: SocketAddr, id: &str) -> String {
 }
 
 /// A child process, killed if the test fails while it runs.
-struct Child(std::process::Child);
+pub(crate) struct Child(pub(crate) std::process::Child);
 
 impl Drop for Child {
     fn drop(&mut self) {

@@ -17,6 +17,7 @@ function kmoved() { return kjoints.filter((j) => j.moved); }
 function setKeyButtons() {
   $("#savekey").disabled = kmoved().length === 0;
   $("#removekey").disabled = !kframe || kframe.keyed.length === 0;
+  setDetectButton();
 }
 
 // The segment (as `resume --segment K` counts) holding frame f (from the server's answer),
@@ -95,6 +96,7 @@ function kupdate() {
     const c = svg.querySelector(`circle.kpoint${sel}`);
     c.setAttribute("cx", j.x); c.setAttribute("cy", j.y); c.setAttribute("r", 5 / s);
     c.classList.toggle("moved", j.moved);
+    c.classList.toggle("proposed", j.moved && !!j.proposed);
     const ring = svg.querySelector(`circle.kring${sel}`);
     const keyed = j.moved || kframe.keyed.includes(j.name);
     ring.setAttribute("cx", j.x); ring.setAttribute("cy", j.y); ring.setAttribute("r", 9 / s);
@@ -180,6 +182,52 @@ function removeKey() {
   return postKey({});
 }
 
+// Detect: the pose network's proposal for this frame (POST /api/frames/N/detect, which saves
+// nothing), shown as joints moved but not saved; the user drags any that are off and saves them
+// as any key. Disabled, saying why, on a run whose joints are not a person's.
+let detecting = false;
+
+function setDetectButton() {
+  const b = $("#detect");
+  const why = run && run.no_detect;
+  b.disabled = Boolean(why) || detecting || !kframe;
+  b.title = why || "propose this frame's joints from the pose network (d); nothing is saved until Save key";
+  b.textContent = detecting ? "Detecting…" : "Detect";
+  b.classList.toggle("busy", detecting);
+}
+
+async function detect() {
+  if (!kframe || detecting) return;
+  if (run && run.no_detect) { say(run.no_detect, "error"); return; }
+  const n = kframe.frame;
+  if (kmoved().length && !confirm("Replace the joints moved on this frame with the network's proposal?")) return;
+  detecting = true;
+  setDetectButton();
+  say(`Detecting the person on frame ${n}…`);
+  let r;
+  try {
+    r = await call(`/api/frames/${n}/detect`, {
+      method: "POST", headers: { "Content-Type": "application/json" }, body: "{}",
+    });
+  } catch (e) {
+    r = { ok: false, body: { error: `no answer from the server (${e.message})` } };
+  }
+  detecting = false;
+  setDetectButton();
+  // The user went to another frame while the network ran: its answer is not for this one.
+  if (!kframe || kframe.frame !== n) return;
+  if (!r.ok) { say(`Detect: ${r.body ? r.body.error : r.status}`, "error"); return; }
+  for (const p of r.body.joints) {
+    const j = kjoints.find((k) => k.name === p.name);
+    if (!j || p.from !== "network") continue;
+    j.x = p.x; j.y = p.y;
+    j.moved = true;
+    j.proposed = true;
+  }
+  kupdate();
+  say(r.body.message, "ok");
+}
+
 // After a save: what to run for the key to take effect, and the page's resume for it.
 function showNext() {
   const p = $("#keynext");
@@ -218,11 +266,12 @@ async function resumeKeyed() {
 $("#goframe").onsubmit = (ev) => { ev.preventDefault(); openFrame(Number($("#frameno").value)); };
 $("#prevframe").onclick = () => openFrame(kframe.frame - 1);
 $("#nextframe").onclick = () => openFrame(kframe.frame + 1);
-// ← → and , . step a frame back and forward, as ◀ ▶ do (not while typing in a field, nor with
-// Ctrl, Alt or Cmd held, which are the browser's).
+// ← → and , . step a frame back and forward, as ◀ ▶ do, and d is Detect (not while typing in a
+// field, nor with Ctrl, Alt or Cmd held, which are the browser's).
 document.addEventListener("keydown", (ev) => {
   if (!kframe || $("#keyeditor").hidden || ev.target.tagName === "INPUT") return;
   if (ev.ctrlKey || ev.altKey || ev.metaKey) return;
+  if (ev.key === "d" || ev.key === "D") { ev.preventDefault(); detect(); return; }
   const d = { ArrowLeft: -1, ",": -1, ArrowRight: 1, ".": 1 }[ev.key];
   if (!d || kframe.frame + d < 0) return;
   ev.preventDefault();
@@ -245,5 +294,6 @@ function renderWorth() {
 }
 $("#savekey").onclick = saveKey;
 $("#removekey").onclick = removeKey;
+$("#detect").onclick = detect;
 $("#resumekey").onclick = resumeKeyed;
 window.addEventListener("beforeunload", (ev) => { if (kmoved().length) ev.preventDefault(); });
