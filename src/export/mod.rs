@@ -17,6 +17,7 @@
 
 pub mod bvh;
 pub mod contacts;
+pub mod curves;
 pub mod dlc;
 pub mod dragonbones;
 pub mod json;
@@ -25,6 +26,7 @@ pub mod rig_map;
 pub mod rig_pose;
 pub mod skin;
 pub mod spine;
+pub mod spine_keys;
 pub mod spine_rig;
 
 use crate::error::{Error, Result};

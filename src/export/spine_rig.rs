@@ -20,7 +20,8 @@
 //! usually are). A bone matched to a root joint gets `translate` keys: the joint's displacement
 //! since the first frame, in Spine axes, scaled by the ratio of their matched bones' lengths to
 //! the character's (1 when their bones have no length), turned into the parent's setup frame.
-//! Keys start at time 0 and are reduced as in [`super::spine`] ([`Keys`]).
+//! Keys start at time 0 and are reduced as in [`super::spine`] ([`Keys`]), with curves between
+//! them ([`super::spine_keys`]).
 //!
 //! **IK constraints** whose bones include a matched bone would override its keys: the animation
 //! keys their `mix` to 0 (their setup is untouched, other animations keep them), and says so.
@@ -36,9 +37,10 @@
 //! the start of `animations` (or replaces an animation of that name; or `animations` is added at
 //! the end of the file), and every other byte of their file stays as it was.
 
-use super::keys::{self, Keys};
+use super::keys::Keys;
 use super::rig_map::{self, Follow, RigBone};
 use super::rig_pose::{read_bones, world, Bone, Ik};
+use super::spine_keys;
 use super::{round, spine, Animation};
 use crate::error::{Error, Result};
 use serde_json::value::RawValue;
@@ -341,7 +343,6 @@ pub fn add_animation(
     }
 
     let time = |t: usize| round((anim.frames[t] - anim.frames[0]) as f64 / anim.fps, 6);
-    let tol = opts.keys.tolerance();
     let mut timelines = Map::new();
     let mut map_lines = Vec::new();
     let mut alone = Vec::new();
@@ -350,17 +351,16 @@ pub fn add_animation(
         let mut tl = Map::new();
         if let Some(values) = &rot[i] {
             let values: Vec<Vec<f64>> = values.iter().map(|&v| vec![v]).collect();
-            let k: Vec<Value> = keys::reduce(&values, tol, Some(180.0))
-                .into_iter()
-                .map(|t| json!({ "time": time(t), "value": round(values[t][0], 5) }))
-                .collect();
-            tl.insert("rotate".into(), Value::Array(k));
+            tl.insert(
+                "rotate".into(),
+                spine_keys::rotate(&values, opts.keys, &time),
+            );
         }
         if let Some(values) = &shift[i] {
             let values: Vec<Vec<f64>> = values.iter().map(|v| v.to_vec()).collect();
             tl.insert(
                 "translate".into(),
-                spine::translate_keys(&values, tol, &time),
+                spine_keys::translate(&values, opts.keys, &time),
             );
         }
         match follows[i] {
