@@ -28,6 +28,7 @@ pub mod skin;
 pub mod spine;
 pub mod spine_keys;
 pub mod spine_rig;
+pub mod splice;
 
 use crate::error::{Error, Result};
 use crate::retarget::P64;

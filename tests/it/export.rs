@@ -1037,8 +1037,12 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
             && map_text.contains("\"torso\" = \"pelvis>chest\"\n"),
         "{map_text}"
     );
-    // Only the new animation is added: every other byte of their file is as it was.
-    let text = std::fs::read_to_string(&out).unwrap();
+    // Only the new animation and the definitions of its contact events (their file has no
+    // `events`) are added: every other byte of their file is as it was.
+    let written = std::fs::read_to_string(&out).unwrap();
+    let defs = ",\"events\":{\"contact_start\":{},\"contact_end\":{}}\n}\n";
+    assert!(written.ends_with(defs), "{written}");
+    let text = written.replacen(defs, "\n}\n", 1);
     let at = THEIR_SKELETON.find("\"animations\": {").unwrap() + "\"animations\": {".len();
     assert!(text.starts_with(&THEIR_SKELETON[..at]), "{text}");
     assert!(text.ends_with(&THEIR_SKELETON[at..]), "{text}");
@@ -1049,6 +1053,7 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
         .remove("dance")
         .unwrap();
     assert_eq!(doc, serde_json::from_str::<Value>(THEIR_SKELETON).unwrap());
+    assert!(!added["events"].as_array().unwrap().is_empty());
     // Their bones are turned and moved, never scaled or given attachments.
     for (bone, tl) in added["bones"].as_object().unwrap() {
         for k in tl.as_object().unwrap().keys() {
@@ -1069,6 +1074,15 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
     let r: Value = serde_json::from_str(&r).unwrap();
     assert_eq!(r["animations"], serde_json::json!(["dance", "idle"]));
     assert_eq!(r["slots"][0]["region"], "body");
+    // The foot contacts, as events spine-core reads against the definitions added to the file.
+    assert_eq!(
+        r["eventNames"],
+        serde_json::json!(["contact_start", "contact_end"])
+    );
+    let events = r["events"].as_array().unwrap();
+    assert!(events
+        .iter()
+        .any(|e| e["name"] == "contact_end" && e["string"] == "ankle_l"));
     let bones = r["bones"].as_array().unwrap();
     let bone = |n: &str| bones.iter().find(|b| b["name"] == n).unwrap();
     let angle = |b: &Value, t: usize| -> f64 {
@@ -1144,7 +1158,7 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
         "--out",
         s(&again),
     ]));
-    assert_eq!(std::fs::read_to_string(&again).unwrap(), text);
+    assert_eq!(std::fs::read_to_string(&again).unwrap(), written);
     assert!(!rig.join("again.bones.toml").exists());
     assert_eq!(std::fs::read_to_string(&map).unwrap(), map_text);
 
@@ -1290,15 +1304,25 @@ fn spineboy_maps_by_structure_with_no_bone_flag_and_its_legs_follow() {
         "{map_text}"
     );
 
-    // Every byte but the animation's is theirs.
+    // Every byte but the animation's and the contact events' definitions (added first in their
+    // `events`, their own `footstep` kept) is theirs.
     let text = std::fs::read_to_string(&out).unwrap();
+    let defs = "\"contact_start\":{},\"contact_end\":{},";
+    let events_at = original.find("\"events\": {").unwrap() + "\"events\": {".len();
+    assert_eq!(&text[events_at..events_at + defs.len()], defs);
+    assert!(
+        err.contains("contact_start, contact_end added to the file's events"),
+        "{err}"
+    );
+    let theirs = text.replacen(defs, "", 1);
     let at = original.find("\"animations\": {").unwrap() + "\"animations\": {".len();
-    assert!(text.starts_with(&original[..at]));
-    assert!(text.ends_with(&original[at..]));
+    assert!(theirs.starts_with(&original[..at]));
+    assert!(theirs.ends_with(&original[at..]));
     let added: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(added["events"]["footstep"], serde_json::json!({}));
     let added = &added["animations"]["mocap"];
     assert_eq!(
-        text.len(),
+        theirs.len(),
         original.len() + "\"mocap\":".len() + added.to_string().len() + 1
     );
     assert_eq!(added["ik"]["front-leg-ik"][0]["mix"], 0);
