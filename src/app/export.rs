@@ -130,6 +130,8 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
                     .iter()
                     .map(|(b, j)| (b.clone(), j.clone(), "--bone".to_owned())),
             );
+            let mut contact_lines = Vec::new();
+            let contacts = contact_events(&retarget_dir, anim, &mut contact_lines)?;
             let r = spine_rig::add_animation(
                 &text,
                 &user.path,
@@ -139,10 +141,12 @@ pub fn export(opts: &ExportOptions) -> Result<ExportSummary> {
                     given,
                     keys: opts.keys,
                     keep_ik: user.keep_ik,
+                    contacts,
                 },
             )?;
             warnings = r.warnings;
             matches = r.matches;
+            matches.append(&mut contact_lines);
             files_out.push((opts.out.clone(), r.text.into_bytes()));
             // The mapping file, beside --out: never over one the user may have edited.
             let map = bone_map_path(&opts.out);

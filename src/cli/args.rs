@@ -67,6 +67,10 @@ pub struct ExportArgs {
     /// Spine, dragonbones: one key per frame on every channel (no key reduction).
     #[arg(long)]
     pub every_frame: bool,
+    /// Spine, dragonbones: straight lines between the reduced keys instead of Bézier curves
+    /// (more keys; for tools that do not read curves).
+    #[arg(long, conflicts_with = "every_frame")]
+    pub linear: bool,
     /// Spine: your own Spine 4.2 skeleton JSON; --out gets a copy of it with the motion added as
     /// one animation (their bones, slots, skins and other animations unchanged).
     #[arg(long, value_name = "SKELETON.json")]

@@ -200,6 +200,7 @@ impl ExportArgs {
         } else {
             mocap2d::export::keys::Keys::Reduce {
                 tolerance: self.tolerance,
+                curves: !self.linear,
             }
         }
     }

@@ -16,7 +16,9 @@
 //! within the tolerance of [`Keys`] (as in Spine; DragonBones tweens a rotation the short way
 //! round, so two rotation keys are never 180° or more apart), each key lasting until the next
 //! (`duration` in frames; the last lasts to the end: the animation's `duration` is the frame
-//! count), linear (`tweenEasing` 0; the last key holds), values relative to the bone's setup
+//! count), eased by a Bézier `curve` `[x1, y1, x2, y2]` fitted as the runtime samples it
+//! ([`super::curves`]) or linear (`tweenEasing` 0, where a straight line holds, and with `curves`
+//! off; the last key holds), values relative to the bone's setup
 //! transform (the first frame): `translateFrame` (px) on the root joints' bones, `rotateFrame`
 //! (degrees, continuous) and `scaleFrame` (x = length / setup length) on the others. Foot
 //! contacts ([`super::contacts`]) become the animation's `frame` list: each event frame lasts
@@ -30,6 +32,7 @@
 //! is the character image copied beside it by `mocap2d export`.
 
 use super::contacts::ContactEvent;
+use super::curves::{self, CurveKey};
 use super::keys::{self, Keys};
 use super::{round, Animation, SkinMesh};
 use serde_json::{json, Map, Value};
@@ -73,16 +76,31 @@ pub fn to_dragonbones(
     };
     // The keys of one channel: `values[t]` on every frame, reduced, as `field = value` maps.
     let channel = |values: &[Vec<f64>], fields: &[(&str, i32)], tol: f64, max_step: Option<f64>| {
-        let kept = keys::reduce(values, tol, max_step);
+        let decimals: Vec<i32> = fields.iter().map(|f| f.1).collect();
+        let kept: Vec<CurveKey> = if keys.curves() && tol > 0.0 {
+            curves::reduce_dragonbones(values, tol, max_step, &decimals)
+        } else {
+            keys::reduce(values, tol, max_step)
+                .into_iter()
+                .map(|at| CurveKey { at, curve: None })
+                .collect()
+        };
         let frames: Vec<Value> = kept
             .iter()
             .enumerate()
-            .map(|(i, &t)| {
+            .map(|(i, k)| {
+                let t = k.at;
                 let mut m = Map::new();
-                let next = kept.get(i + 1).copied().unwrap_or(n);
+                let next = kept.get(i + 1).map_or(n, |k| k.at);
                 m.insert("duration".into(), json!(next - t));
-                if i + 1 < kept.len() {
-                    m.insert("tweenEasing".into(), json!(0));
+                match &k.curve {
+                    Some(c) => {
+                        m.insert("curve".into(), json!(c));
+                    }
+                    None if i + 1 < kept.len() => {
+                        m.insert("tweenEasing".into(), json!(0));
+                    }
+                    None => {}
                 }
                 for (k, (f, decimals)) in fields.iter().enumerate() {
                     m.insert((*f).into(), json!(round(values[t][k], *decimals)));

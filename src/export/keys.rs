@@ -1,5 +1,6 @@
 //! Key reduction for the skeleton formats: of a channel sampled on every frame, the frames to key
-//! so that linear interpolation between the kept keys reproduces every frame within a tolerance.
+//! so that linear interpolation between the kept keys reproduces every frame within a tolerance
+//! (docs/method.md §7; the exports' default, curves between the keys, is [`super::curves`]).
 //!
 //! The method is Ramer–Douglas–Peucker with the error measured in the channel's value (the
 //! distance, over the value's components, between a frame's value and the straight line between
@@ -16,8 +17,9 @@ pub enum Keys {
     /// One key a frame.
     EveryFrame,
     /// As few keys as reproduce every frame within this many px (positions, and the tip of a
-    /// bone whose length changes) and degrees (rotations).
-    Reduce { tolerance: f64 },
+    /// bone whose length changes) and degrees (rotations); with `curves`, Bézier curves between
+    /// the keys ([`super::curves`]), else straight lines ([`reduce`]).
+    Reduce { tolerance: f64, curves: bool },
 }
 
 /// The default tolerance of [`Keys::Reduce`]: 0.5 px and 0.5°.
@@ -27,6 +29,7 @@ impl Default for Keys {
     fn default() -> Self {
         Keys::Reduce {
             tolerance: DEFAULT_TOLERANCE,
+            curves: true,
         }
     }
 }
@@ -36,8 +39,13 @@ impl Keys {
     pub fn tolerance(self) -> f64 {
         match self {
             Keys::EveryFrame => 0.0,
-            Keys::Reduce { tolerance } => tolerance,
+            Keys::Reduce { tolerance, .. } => tolerance,
         }
+    }
+
+    /// Whether reduced keys carry Bézier curves.
+    pub fn curves(self) -> bool {
+        matches!(self, Keys::Reduce { curves: true, .. })
     }
 }
 

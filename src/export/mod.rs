@@ -17,6 +17,7 @@
 
 pub mod bvh;
 pub mod contacts;
+pub mod curves;
 pub mod dlc;
 pub mod dragonbones;
 pub mod json;
@@ -25,7 +26,9 @@ pub mod rig_map;
 pub mod rig_pose;
 pub mod skin;
 pub mod spine;
+pub mod spine_keys;
 pub mod spine_rig;
+pub mod splice;
 
 use crate::error::{Error, Result};
 use crate::retarget::P64;

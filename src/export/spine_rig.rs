@@ -20,7 +20,8 @@
 //! usually are). A bone matched to a root joint gets `translate` keys: the joint's displacement
 //! since the first frame, in Spine axes, scaled by the ratio of their matched bones' lengths to
 //! the character's (1 when their bones have no length), turned into the parent's setup frame.
-//! Keys start at time 0 and are reduced as in [`super::spine`] ([`Keys`]).
+//! Keys start at time 0 and are reduced as in [`super::spine`] ([`Keys`]), with curves between
+//! them ([`super::spine_keys`]).
 //!
 //! **IK constraints** whose bones include a matched bone would override its keys: the animation
 //! keys their `mix` to 0 (their setup is untouched, other animations keep them), and says so.
@@ -32,16 +33,24 @@
 //! less than 0.35 of the spine's height apart) and the capture faces the camera (more than 0.5),
 //! a warning says so: arms and legs then swing across the body.
 //!
-//! **The file.** Only the animation is written into their text: `"NAME": {...}` is inserted at
-//! the start of `animations` (or replaces an animation of that name; or `animations` is added at
-//! the end of the file), and every other byte of their file stays as it was.
+//! **Foot contacts** ([`super::contacts`]) become the animation's `events` (`contact_start` /
+//! `contact_end`, the character's foot joint as the string), as in the bundled export. Spine
+//! needs each event defined in the file's top-level `events`: a definition it lacks is added
+//! (`"contact_start": {}`), one it has is left as it is, and the export says which.
+//!
+//! **The file.** Only the animation (and those event definitions) is written into their text:
+//! `"NAME": {...}` is inserted at the start of `animations` (or replaces an animation of that
+//! name; or `animations` is added at the end of the file), and every other byte of their file
+//! stays as it was ([`super::splice`]).
 
-use super::keys::{self, Keys};
+use super::contacts::{ContactEvent, CONTACT_END, CONTACT_START};
+use super::keys::Keys;
 use super::rig_map::{self, Follow, RigBone};
 use super::rig_pose::{read_bones, world, Bone, Ik};
+use super::spine_keys;
+use super::splice::splice;
 use super::{round, spine, Animation};
 use crate::error::{Error, Result};
-use serde_json::value::RawValue;
 use serde_json::{json, Map, Value};
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
@@ -62,6 +71,9 @@ pub struct RigOptions {
     pub keys: Keys,
     /// Keep IK constraints over matched bones and move their targets (else key their mix to 0).
     pub keep_ik: bool,
+    /// Foot contacts to carry as events (their definitions added to the file's `events` when
+    /// it lacks them).
+    pub contacts: Vec<ContactEvent>,
 }
 
 /// What [`add_animation`] made.
@@ -341,7 +353,6 @@ pub fn add_animation(
     }
 
     let time = |t: usize| round((anim.frames[t] - anim.frames[0]) as f64 / anim.fps, 6);
-    let tol = opts.keys.tolerance();
     let mut timelines = Map::new();
     let mut map_lines = Vec::new();
     let mut alone = Vec::new();
@@ -350,17 +361,16 @@ pub fn add_animation(
         let mut tl = Map::new();
         if let Some(values) = &rot[i] {
             let values: Vec<Vec<f64>> = values.iter().map(|&v| vec![v]).collect();
-            let k: Vec<Value> = keys::reduce(&values, tol, Some(180.0))
-                .into_iter()
-                .map(|t| json!({ "time": time(t), "value": round(values[t][0], 5) }))
-                .collect();
-            tl.insert("rotate".into(), Value::Array(k));
+            tl.insert(
+                "rotate".into(),
+                spine_keys::rotate(&values, opts.keys, &time),
+            );
         }
         if let Some(values) = &shift[i] {
             let values: Vec<Vec<f64>> = values.iter().map(|v| v.to_vec()).collect();
             tl.insert(
                 "translate".into(),
-                spine::translate_keys(&values, tol, &time),
+                spine_keys::translate(&values, opts.keys, &time),
             );
         }
         match follows[i] {
@@ -401,9 +411,52 @@ pub fn add_animation(
     if !ik_keys.is_empty() {
         animation.insert("ik".into(), Value::Object(ik_keys));
     }
+    let mut text = text.to_owned();
+    if !opts.contacts.is_empty() {
+        let events: Vec<Value> = opts
+            .contacts
+            .iter()
+            .map(|e| {
+                let joint = &anim.skeleton.names[e.joint];
+                json!({ "time": time(e.t), "name": e.name(), "string": joint })
+            })
+            .collect();
+        animation.insert("events".into(), Value::Array(events));
+        // Their file's event definitions: ours added, theirs never changed.
+        let (mut added, mut theirs) = (Vec::new(), Vec::new());
+        for name in [CONTACT_END, CONTACT_START] {
+            if doc["events"].get(name).is_some() {
+                theirs.push(name);
+            } else {
+                text = splice(&text, "events", &quote(name), "{}", false).map_err(err)?;
+                added.push(name);
+            }
+        }
+        let starts = opts.contacts.iter().filter(|e| e.start).count();
+        let mut line = format!(
+            "foot contacts: {starts} starts and {} ends as events in {}",
+            opts.contacts.len() - starts,
+            opts.name
+        );
+        if !added.is_empty() {
+            added.reverse();
+            line += &format!(
+                "; {} added to the file's events (nothing else in it changed)",
+                added.join(", ")
+            );
+        }
+        if !theirs.is_empty() {
+            line += &format!(
+                "; {} already defined in the file, kept as it is",
+                theirs.join(", ")
+            );
+        }
+        lines.push(line);
+    }
     // Cannot fail: plain JSON values.
     let anim_text = serde_json::to_string(&Value::Object(animation)).expect("JSON values");
     let key = serde_json::to_string(&opts.name).expect("a string");
+    let text = splice(&text, "animations", &key, &anim_text, true).map_err(err)?;
     let map_file = format!(
         "# Which bone of {} follows which joint of the retargeted character (mocap2d export).\n\
          # A bone names the joint it turns at (its pivot); PIVOT>JOINT picks one of several bones\n\
@@ -419,7 +472,7 @@ pub fn add_animation(
         }
     );
     Ok(RigAnimation {
-        text: splice(text, &key, &anim_text).map_err(err)?,
+        text,
         matches: lines,
         map_file,
         warnings,
@@ -430,74 +483,4 @@ pub fn add_animation(
 fn quote(s: &str) -> String {
     // Cannot fail: a string serializes.
     serde_json::to_string(s).expect("a string")
-}
-
-/// Byte offset of `inner` (a slice of `outer`) in `outer`.
-fn offset_in(outer: &str, inner: &str) -> usize {
-    inner.as_ptr() as usize - outer.as_ptr() as usize
-}
-
-/// `text` (a JSON object) with `key: value` (both JSON text) as the first entry of its
-/// `animations` object, replacing an entry of that key, or with `animations` added last.
-fn splice(text: &str, key: &str, value: &str) -> std::result::Result<String, String> {
-    let top: HashMap<String, &RawValue> =
-        serde_json::from_str(text).map_err(|e| format!("not a JSON object: {e}"))?;
-    let name: String = serde_json::from_str(key).map_err(|e| e.to_string())?;
-    let Some(raw) = top.get("animations") else {
-        // Before the top object's closing brace.
-        let close = text.rfind('}').ok_or("does not end in '}'")?;
-        let body = text[..close].trim_end();
-        let sep = if body.ends_with('{') { "" } else { "," };
-        return Ok(format!(
-            "{body}{sep}\"animations\":{{{key}:{value}}}{}",
-            &text[body.len()..]
-        ));
-    };
-    let anims_text = raw.get();
-    let at = offset_in(text, anims_text);
-    let entries: HashMap<String, &RawValue> = serde_json::from_str(anims_text)
-        .map_err(|_| "`animations` is not an object".to_string())?;
-    if let Some(old) = entries.get(&name) {
-        let (s, e) = (offset_in(text, old.get()), old.get().len());
-        return Ok(format!("{}{value}{}", &text[..s], &text[s + e..]));
-    }
-    // Just after the opening brace.
-    let brace = at
-        + anims_text
-            .find('{')
-            .ok_or("`animations` is not an object")?
-        + 1;
-    let sep = if entries.is_empty() { "" } else { "," };
-    Ok(format!(
-        "{}{key}:{value}{sep}{}",
-        &text[..brace],
-        &text[brace..]
-    ))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn splice_keeps_every_other_byte() {
-        let text =
-            "{\n  \"bones\": [{\"name\": \"a\"}],\n  \"animations\": {\n    \"idle\": {}\n  }\n}\n";
-        let out = splice(text, "\"mocap\"", "{\"bones\":{}}").unwrap();
-        assert_eq!(
-            out,
-            "{\n  \"bones\": [{\"name\": \"a\"}],\n  \"animations\": {\"mocap\":{\"bones\":{}},\n    \"idle\": {}\n  }\n}\n"
-        );
-        // The same name again: replaced, not added.
-        let again = splice(&out, "\"mocap\"", "{}").unwrap();
-        assert_eq!(again, out.replace("{\"bones\":{}}", "{}"));
-        // No animations: added last.
-        let out = splice("{\"bones\": []}\n", "\"m\"", "{}").unwrap();
-        assert_eq!(out, "{\"bones\": [],\"animations\":{\"m\":{}}}\n");
-        let v: Value = serde_json::from_str(&out).unwrap();
-        assert!(v["animations"]["m"].is_object());
-        // Empty animations.
-        let out = splice("{\"animations\": { }}", "\"m\"", "1").unwrap();
-        assert_eq!(out, "{\"animations\": {\"m\":1 }}");
-    }
 }

@@ -1,6 +1,10 @@
 //! Retargeting tests on hand-made skeletons and motions.
 
 use super::*;
+use crate::character::Scale;
+use crate::geom::Point;
+use crate::run::TrackRow;
+use std::path::Path;
 
 /// Lengths follow the source (eq. 18), feet left as retargeted: the equations alone.
 fn stretching() -> RetargetOptions {

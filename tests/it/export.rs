@@ -17,7 +17,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn clip(scenario: Scenario, frames: u32) -> SynthClip {
+pub(crate) fn clip(scenario: Scenario, frames: u32) -> SynthClip {
     synth_clip(scenario, 320, 240, 1, Some(frames))
 }
 
@@ -27,11 +27,11 @@ fn run_from_gt(dir: &Path, clip: &SynthClip) -> PathBuf {
 }
 
 /// [`run_from_gt`] seeded on frame `first`: the tracks start there.
-fn run_from_gt_from(dir: &Path, clip: &SynthClip, first: usize) -> PathBuf {
+pub(crate) fn run_from_gt_from(dir: &Path, clip: &SynthClip, first: usize) -> PathBuf {
     common::run_from_gt(dir, clip, first, |f, j| 0.5 + 0.01 * ((f + j) % 50) as f32)
 }
 
-fn ok(o: &Output) {
+pub(crate) fn ok(o: &Output) {
     assert!(
         o.status.success(),
         "exit {:?}: {}",
@@ -41,7 +41,7 @@ fn ok(o: &Output) {
 }
 
 /// The retargeted animation of `run`, as the exporters read it.
-fn animation(run: &Path) -> Animation {
+pub(crate) fn animation(run: &Path) -> Animation {
     let dir = run.join("retarget");
     let skeleton = read_skeleton(&dir.join("pose.csv"), &dir.join("bones.csv")).unwrap();
     let (frames, joints) = read_pose(&dir.join("pose.csv"), &skeleton.names).unwrap();
@@ -79,7 +79,7 @@ fn retargeted_walk(dir: &Path) -> (PathBuf, Animation, PathBuf) {
 
 /// Runs `tests/js/<script>` with Node.js; `None` (after a loud note) when the JavaScript side is
 /// not installed and `MOCAP2D_SKIP_JS=1`; a failure saying how to install it otherwise.
-fn node(script: &str, package: &str, args: &[&str]) -> Option<String> {
+pub(crate) fn node(script: &str, package: &str, args: &[&str]) -> Option<String> {
     let js = root().join("tests/js");
     let installed = js.join("node_modules").join(package).is_dir();
     let node_ok = Command::new("node")
@@ -120,7 +120,7 @@ fn node(script: &str, package: &str, args: &[&str]) -> Option<String> {
 
 /// Seconds of every exported frame on the animation's clock (0 on the first frame), as written
 /// in the keys.
-fn times(anim: &Animation) -> Vec<f64> {
+pub(crate) fn times(anim: &Animation) -> Vec<f64> {
     anim.frames
         .iter()
         .map(|&f| ((f - anim.frames[0]) as f64 / anim.fps * 1e6).round() / 1e6)
@@ -449,7 +449,8 @@ fn reduced_keys_start_at_zero_and_reproduce_every_frame_within_the_tolerance() {
         s(&every),
         "--every-frame",
     ]));
-    // The default: 0.5 px and 0.5 degrees.
+    // The default tolerance, 0.5 px and 0.5 degrees, with straight lines between the keys (the
+    // curves are checked in spine-core by export_curves).
     ok(&mocap2d(&[
         "export",
         s(&run),
@@ -457,6 +458,7 @@ fn reduced_keys_start_at_zero_and_reproduce_every_frame_within_the_tolerance() {
         "spine",
         "--out",
         s(&reduced),
+        "--linear",
     ]));
     let read =
         |p: &Path| -> Value { serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap() };
@@ -1035,8 +1037,12 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
             && map_text.contains("\"torso\" = \"pelvis>chest\"\n"),
         "{map_text}"
     );
-    // Only the new animation is added: every other byte of their file is as it was.
-    let text = std::fs::read_to_string(&out).unwrap();
+    // Only the new animation and the definitions of its contact events (their file has no
+    // `events`) are added: every other byte of their file is as it was.
+    let written = std::fs::read_to_string(&out).unwrap();
+    let defs = ",\"events\":{\"contact_start\":{},\"contact_end\":{}}\n}\n";
+    assert!(written.ends_with(defs), "{written}");
+    let text = written.replacen(defs, "\n}\n", 1);
     let at = THEIR_SKELETON.find("\"animations\": {").unwrap() + "\"animations\": {".len();
     assert!(text.starts_with(&THEIR_SKELETON[..at]), "{text}");
     assert!(text.ends_with(&THEIR_SKELETON[at..]), "{text}");
@@ -1047,6 +1053,7 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
         .remove("dance")
         .unwrap();
     assert_eq!(doc, serde_json::from_str::<Value>(THEIR_SKELETON).unwrap());
+    assert!(!added["events"].as_array().unwrap().is_empty());
     // Their bones are turned and moved, never scaled or given attachments.
     for (bone, tl) in added["bones"].as_object().unwrap() {
         for k in tl.as_object().unwrap().keys() {
@@ -1067,6 +1074,15 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
     let r: Value = serde_json::from_str(&r).unwrap();
     assert_eq!(r["animations"], serde_json::json!(["dance", "idle"]));
     assert_eq!(r["slots"][0]["region"], "body");
+    // The foot contacts, as events spine-core reads against the definitions added to the file.
+    assert_eq!(
+        r["eventNames"],
+        serde_json::json!(["contact_start", "contact_end"])
+    );
+    let events = r["events"].as_array().unwrap();
+    assert!(events
+        .iter()
+        .any(|e| e["name"] == "contact_end" && e["string"] == "ankle_l"));
     let bones = r["bones"].as_array().unwrap();
     let bone = |n: &str| bones.iter().find(|b| b["name"] == n).unwrap();
     let angle = |b: &Value, t: usize| -> f64 {
@@ -1142,7 +1158,7 @@ fn their_own_spine_skeleton_gets_the_motion_as_an_animation_and_keeps_the_rest()
         "--out",
         s(&again),
     ]));
-    assert_eq!(std::fs::read_to_string(&again).unwrap(), text);
+    assert_eq!(std::fs::read_to_string(&again).unwrap(), written);
     assert!(!rig.join("again.bones.toml").exists());
     assert_eq!(std::fs::read_to_string(&map).unwrap(), map_text);
 
@@ -1288,15 +1304,25 @@ fn spineboy_maps_by_structure_with_no_bone_flag_and_its_legs_follow() {
         "{map_text}"
     );
 
-    // Every byte but the animation's is theirs.
+    // Every byte but the animation's and the contact events' definitions (added first in their
+    // `events`, their own `footstep` kept) is theirs.
     let text = std::fs::read_to_string(&out).unwrap();
+    let defs = "\"contact_start\":{},\"contact_end\":{},";
+    let events_at = original.find("\"events\": {").unwrap() + "\"events\": {".len();
+    assert_eq!(&text[events_at..events_at + defs.len()], defs);
+    assert!(
+        err.contains("contact_start, contact_end added to the file's events"),
+        "{err}"
+    );
+    let theirs = text.replacen(defs, "", 1);
     let at = original.find("\"animations\": {").unwrap() + "\"animations\": {".len();
-    assert!(text.starts_with(&original[..at]));
-    assert!(text.ends_with(&original[at..]));
+    assert!(theirs.starts_with(&original[..at]));
+    assert!(theirs.ends_with(&original[at..]));
     let added: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(added["events"]["footstep"], serde_json::json!({}));
     let added = &added["animations"]["mocap"];
     assert_eq!(
-        text.len(),
+        theirs.len(),
         original.len() + "\"mocap\":".len() + added.to_string().len() + 1
     );
     assert_eq!(added["ik"]["front-leg-ik"][0]["mix"], 0);

@@ -17,6 +17,7 @@ mod dance;
 mod decode;
 mod eval;
 mod export;
+mod export_curves;
 mod exposure;
 mod hardening;
 mod hardening_files;

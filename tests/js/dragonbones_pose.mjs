@@ -2,7 +2,7 @@
 // ObjectDataParser, BaseFactory, Armature and its animation, with no renderer: the factory below
 // builds armatures and slots that display nothing), plays the first animation to each given time
 // and prints, as JSON on the last line of stdout (the runtime prints a banner first), every bone's world position (origin and tip = its local
-// (length, 0)) at each time. With TEX.json, the texture atlas is parsed too (its image must be a
+// (length, 0)) and its animation values (`local`: x, y, rotation in degrees, scale x) at each time. With TEX.json, the texture atlas is parsed too (its image must be a
 // PNG beside it), every mesh display must find its texture in it, and each mesh's world vertices
 // at each time are printed (weighted meshes deformed as the runtime's renderers do it). Last, the
 // animation is played once through, frame by frame, and the frame events it fires are printed
@@ -144,7 +144,7 @@ function meshVertices(d) {
 // upstream DragonBonesJS, Egret and Pixi run) or up (this Cocos fork's default, which flips y).
 function pose(yDown) {
   db.DragonBones.yDown = yDown;
-  const result = bones.map((b) => ({ name: b.name, parent: b.parent ? b.parent.name : null, x: [], y: [], tipX: [], tipY: [] }));
+  const result = bones.map((b) => ({ name: b.name, parent: b.parent ? b.parent.name : null, x: [], y: [], tipX: [], tipY: [], local: [] }));
   const vertices = meshes.map(() => []);
   for (const t of times) {
     armature.animation.gotoAndStopByTime(name, t);
@@ -160,6 +160,10 @@ function pose(yDown) {
       result[i].y.push(m.ty);
       result[i].tipX.push(m.a * len + m.tx);
       result[i].tipY.push(m.b * len + m.ty);
+      // The animation's own values on the bone (relative to its setup): x, y, rotation in
+      // degrees, scale x.
+      const a = bone.animationPose;
+      result[i].local.push([a.x, a.y, a.rotation * 180 / Math.PI, a.scaleX]);
     });
     meshes.forEach((mesh, k) => vertices[k].push(meshVertices(mesh.data)));
   }

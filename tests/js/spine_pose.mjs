@@ -2,7 +2,8 @@
 // SkeletonJson and AtlasAttachmentLoader; no textures are needed to pose a skeleton, but every
 // atlas page must be an image file found beside the atlas), applies the animation ANIMATION (by
 // default the only one) at each given time and prints, as JSON on stdout, every bone's world
-// position (origin and tip = its local (length, 0)) and the skin's world vertices at each time,
+// position (origin and tip = its local (length, 0)), its local pose (`local`: x, y, rotation,
+// scale x, as the animation set them) and the skin's world vertices at each time,
 // and the animation's events (time, name, string) with the event names the skeleton defines.
 // Usage: node spine_pose.mjs SKELETON.json SKELETON.atlas T1,T2,... [ANIMATION]
 import { existsSync, readFileSync, statSync } from "node:fs";
@@ -41,7 +42,7 @@ const out = {
   animations: data.animations.map((a) => a.name),
   animation: animation.name,
   duration: animation.duration,
-  bones: data.bones.map((b) => ({ name: b.name, parent: b.parent ? b.parent.name : null, x: [], y: [], tipX: [], tipY: [] })),
+  bones: data.bones.map((b) => ({ name: b.name, parent: b.parent ? b.parent.name : null, x: [], y: [], tipX: [], tipY: [], local: [] })),
   slots: [],
   vertices: [],
 };
@@ -55,6 +56,7 @@ for (const t of times) {
     out.bones[i].y.push(bone.worldY);
     out.bones[i].tipX.push(tip.x);
     out.bones[i].tipY.push(tip.y);
+    out.bones[i].local.push([bone.x, bone.y, bone.rotation, bone.scaleX]);
   });
   const frame = [];
   for (const slot of skeleton.slots) {
