@@ -9,6 +9,8 @@
 //! its own (so frames can be deformed in parallel with identical results).
 
 pub mod check;
+pub mod fan;
+pub mod fill;
 pub mod needle;
 pub mod silhouette;
 pub mod skinning;
@@ -55,7 +57,14 @@ pub struct Rig {
     pub draw_order: Vec<u32>,
     /// `(vertex, copy)`: the vertices the hinge split duplicated ([`split::Split::seams`]).
     pub seams: Vec<(u32, u32)>,
+    /// Seam fillers ([`fill::fillers`]): triangles over `mesh.rest` drawn before (beneath) every
+    /// part, spanning the cuts when the parts turn apart (docs/method.md §5.4).
+    pub fill: Vec<[u32; 3]>,
     needles: Vec<Needle>,
+    /// The hinges' joint-area vertices, placed by [`fan::place`] after stage one.
+    fans: Vec<fan::FanVertex>,
+    /// Rest joints (output px).
+    rest_joints: Vec<Point>,
     rest_len: Vec<f32>,
     rest_dir: Vec<Vector>,
     solver: Option<JointSolver>,
@@ -100,7 +109,12 @@ impl Rig {
         let mesh = triangulate::build_mesh(image, mesh_vertices)?;
         let layer_of_bone: Vec<i32> = bones.iter().map(|&(_, c)| layers[c]).collect();
         let skin = skinning::skin(&mesh, image, rest, &bones, &layer_of_bone);
-        let split::Split { mesh, skin, seams } =
+        let split::Split {
+            mesh,
+            skin,
+            seams,
+            fill,
+        } =
             split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
         let rest_out: Vec<Point> = mesh
             .rest
@@ -117,6 +131,7 @@ impl Rig {
                 (l, if l > 1e-6 { d / l } else { Vector::x() })
             })
             .unzip();
+        let fans = hinge_fans(&mesh, &rest_out, &skin, &bones, &joints_out);
         let solver = options
             .stage_two
             .then(|| JointSolver::new(&mesh, &rest_out, &skin));
@@ -135,7 +150,10 @@ impl Rig {
             bones,
             draw_order,
             seams,
+            fill,
             needles,
+            fans,
+            rest_joints: joints_out,
             rest_len,
             rest_dir,
             solver,
@@ -160,15 +178,41 @@ impl Rig {
             self.options.area_preservation,
             &mut pos,
         );
+        let scale: Vec<f32> = self
+            .bones
+            .iter()
+            .zip(&self.rest_len)
+            .map(|(&(p, c), &l)| {
+                if l > 1e-6 {
+                    ((joints[c] - joints[p]).norm() / l)
+                        .clamp(needle::SCALE_LIMITS.0, needle::SCALE_LIMITS.1)
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        fan::place(&self.fans, &self.rest_joints, joints, &scale, &mut pos);
         if let Some(s) = &self.solver {
+            // Stage two smooths the joint areas, but its edge lengths can push the inside of a
+            // sharp bend over: then the fans' placement stands (docs/method.md §5.6).
+            let fans = pos.clone();
             s.solve(&mut pos);
+            let folded = |p: &[Point]| {
+                self.mesh
+                    .triangles
+                    .iter()
+                    .any(|&t| !(triangulate::triangle_area(p, t) > 0.0))
+            };
+            if folded(&pos) && !folded(&fans) {
+                pos = fans;
+            }
         }
         pos
     }
 
     /// The folded and cracked triangles of the mesh at vertices `pos` ([`check::defects`]).
     pub fn defects(&self, pos: &[Point]) -> check::Defects {
-        check::defects(&self.mesh, &self.seams, pos)
+        check::defects(&self.mesh, &self.seams, &self.fill, pos)
     }
 
     /// Signed areas (px², positive = as at rest) of the triangles for vertices `pos`.
@@ -179,4 +223,66 @@ impl Rig {
             .map(|&t| triangulate::triangle_area(pos, t))
             .collect()
     }
+}
+
+/// The fan vertex (docs/method.md §5.5) of every vertex of a joint triangle: the hinge of the
+/// triangle's bones (a child bone starting where its parent ends) whose joint is nearest the
+/// vertex at rest. `rest` are the vertices' and `joints` the joints' rest positions (output px).
+fn hinge_fans(
+    mesh: &Mesh,
+    rest: &[Point],
+    skin: &[u16],
+    bones: &[(usize, usize)],
+    joints: &[Point],
+) -> Vec<fan::FanVertex> {
+    let mut best: Vec<Option<(f32, [usize; 3], [u16; 2])>> = vec![None; rest.len()];
+    for t in &mesh.triangles {
+        let b = t.map(|v| skin[v as usize]);
+        for &p in &b {
+            for &c in &b {
+                let (pb, cb) = (bones[p as usize], bones[c as usize]);
+                if p == c || cb.0 != pb.1 {
+                    continue;
+                }
+                let hinge = [pb.0, pb.1, cb.1];
+                for &v in t {
+                    let d = (rest[v as usize] - joints[pb.1]).norm();
+                    let slot = &mut best[v as usize];
+                    if slot.map_or(true, |s| d < s.0) {
+                        *slot = Some((d, hinge, [p, c]));
+                    }
+                }
+            }
+        }
+    }
+    // Every other vertex of a hinge's two bones that lies off its own bone's way from the joint
+    // (beside or past it), so the fan reaches past the joint triangles (the nearest hinge).
+    let hinges: std::collections::BTreeSet<([usize; 3], [u16; 2])> =
+        best.iter().flatten().map(|&(_, j, b)| (j, b)).collect();
+    for (v, slot) in best.iter_mut().enumerate() {
+        if slot.is_some() {
+            continue;
+        }
+        for &(j, b) in &hinges {
+            let Some(own) = b.iter().position(|&x| x == skin[v]) else {
+                continue;
+            };
+            let f = fan::fan_vertex(v as u32, rest[v], j, b, joints);
+            let w0 = fan::fan_vertex(0, joints[j[2]], j, b, joints).t;
+            let off = (f.t - if own == 0 { 0.0 } else { w0 }).rem_euclid(std::f32::consts::TAU);
+            let off = off.min(std::f32::consts::TAU - off);
+            if off <= fan::RIGID_HALF_WIDTH / 2.0 {
+                continue;
+            }
+            if slot.map_or(true, |s| f.r < s.0) {
+                *slot = Some((f.r, j, b));
+            }
+        }
+    }
+    best.iter()
+        .enumerate()
+        .filter_map(|(v, b)| {
+            b.map(|(_, j, bs)| fan::fan_vertex(v as u32, rest[v], j, bs, joints))
+        })
+        .collect()
 }
