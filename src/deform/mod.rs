@@ -271,7 +271,9 @@ fn hinge_fans(
             let w0 = fan::fan_vertex(0, joints[j[2]], j, b, joints).t;
             let off = (f.t - if own == 0 { 0.0 } else { w0 }).rem_euclid(std::f32::consts::TAU);
             let off = off.min(std::f32::consts::TAU - off);
-            if off <= fan::RIGID_HALF_WIDTH / 2.0 {
+            // On the joint's half of its bone, or off its way (past the joint).
+            let near = f.r <= NEAR_SHARE * (joints[j[own + 1]] - joints[j[own]]).norm();
+            if off <= fan::RIGID_HALF_WIDTH / 2.0 && !near {
                 continue;
             }
             if slot.map_or(true, |s| f.r < s.0) {
@@ -286,3 +288,6 @@ fn hinge_fans(
         })
         .collect()
 }
+
+/// Share of a hinged bone's length, from the joint, over which its vertices join the fan.
+const NEAR_SHARE: f32 = 0.5;
