@@ -108,6 +108,16 @@ mod tests {
             pos[v].x -= 10.0;
         }
         assert!(defects(&mesh, &seams, &[], &pos).cracks.is_empty());
+        // Moved right again, with the fillers the split would give (a quad between the two
+        // copies of the edge 1-2): the opening is spanned, no crack; the fold is still found.
+        for v in [3, 4, 5] {
+            pos[v].x += 10.0;
+        }
+        let fill = [[1, 2, 4], [1, 4, 3]];
+        assert_eq!(defects(&mesh, &seams, &[], &pos).cracks, seams);
+        assert!(defects(&mesh, &seams, &fill, &pos).is_clean());
+        pos[0] = Point::new(12.0, 12.0);
+        assert_eq!(defects(&mesh, &seams, &fill, &pos).folded, vec![0]);
         // The first triangle turned over.
         let (_, _, mut pos) = pair();
         pos[0] = Point::new(12.0, 12.0);

@@ -8,6 +8,13 @@
 //! increasing around the whole turn whatever the bend (each arc keeps a positive width, `β` being
 //! at most a quarter of the narrower arc, at rest and now), so the map is one to one and keeps
 //! orientation: a joint area can be squeezed on the inside of a bend but never turned over.
+//!
+//! Away from the joint the turn hands over to the vertex's own bone: with `λ(r)` 1 up to `r₀`
+//! (the farthest joint-triangle vertex of the hinge) and falling linearly to 0 at `r₁` (half
+//! the bone's length, at least `r₀` plus a mesh spacing), the vertex takes the angle
+//! `λ g(α) + (1 − λ) ρ(α)`, `ρ` its bone's rigid turn. The angle still grows with `α` on every
+//! circle about the joint (its slope is `λ g' + 1 − λ > 0`), and the distance from the joint is
+//! kept, so the map stays one to one; past `r₁` it is the bone's own (stage one's) placement.
 
 use crate::geom::{Point, Vector};
 use std::f32::consts::TAU;
@@ -23,6 +30,11 @@ pub struct FanVertex {
     pub joints: [usize; 3],
     /// Bones (indices into the rig's bones): parent, child.
     pub bones: [u16; 2],
+    /// Which of the two is the vertex's own bone (0 parent, 1 child).
+    pub own: u8,
+    /// The fan holds fully up to `r0` px from the joint and hands over to the own bone by `r1`.
+    pub r0: f32,
+    pub r1: f32,
     /// Distance from the joint at rest (px) and the angle from the parent's direction (radians,
     /// 0 to 2π, the sense of increasing screen angle).
     pub r: f32,
@@ -56,13 +68,69 @@ pub fn fan_vertex(
         vertex,
         joints,
         bones,
+        own: 0,
         r: d.norm(),
         t: (angle(d) - a_p).rem_euclid(TAU),
+        r0: f32::INFINITY,
+        r1: f32::INFINITY,
     }
 }
 
-/// Places the fan vertices `fans` into `out` for the joints at `now`, rest joints `rest`, each
-/// bone's length scale `scale`.
+/// The fan vertices of a split mesh (triangles `triangles`, vertex rest positions `rest` and
+/// bones `skin`, mesh spacing `spacing`, px): for each hinge (a child bone starting where its
+/// parent ends, the two sharing a triangle), the vertices of its two bones within `r₁` of the
+/// joint; a vertex near two hinges takes the one whose joint is nearer.
+pub fn fans(
+    triangles: &[[u32; 3]],
+    rest: &[Point],
+    skin: &[u16],
+    bones: &[(usize, usize)],
+    joints: &[Point],
+    spacing: f32,
+) -> Vec<FanVertex> {
+    // Each hinge, with the farthest vertex of its joint triangles from the joint (r₀).
+    let mut hinges: std::collections::BTreeMap<([usize; 3], [u16; 2]), f32> = Default::default();
+    for t in triangles {
+        let b = t.map(|v| skin[v as usize]);
+        for &p in &b {
+            for &c in &b {
+                let (pb, cb) = (bones[p as usize], bones[c as usize]);
+                if p == c || cb.0 != pb.1 {
+                    continue;
+                }
+                let r0 = hinges.entry(([pb.0, pb.1, cb.1], [p, c])).or_insert(0.0);
+                for &v in t {
+                    *r0 = r0.max((rest[v as usize] - joints[pb.1]).norm());
+                }
+            }
+        }
+    }
+    let mut out: Vec<FanVertex> = Vec::new();
+    for (v, &x) in rest.iter().enumerate() {
+        let mut best: Option<FanVertex> = None;
+        for (&(j, b), &r0) in &hinges {
+            let Some(own) = b.iter().position(|&o| o == skin[v]) else {
+                continue;
+            };
+            let len = (joints[j[own + 1]] - joints[j[own]]).norm();
+            let mut f = fan_vertex(v as u32, x, j, b, joints);
+            f.own = own as u8;
+            f.r0 = r0;
+            f.r1 = (NEAR_SHARE * len).max(r0 + spacing);
+            if f.r < f.r1 && best.map_or(true, |g| f.r < g.r) {
+                best = Some(f);
+            }
+        }
+        out.extend(best);
+    }
+    out
+}
+
+/// Share of a hinged bone's length, from the joint, over which the fan hands over to the bone.
+pub const NEAR_SHARE: f32 = 0.5;
+
+/// Places the fan vertices `fans` into `out`, which holds stage one's placement, for the joints
+/// at `now`, rest joints `rest`, each bone's length scale `scale`.
 pub fn place(fans: &[FanVertex], rest: &[Point], now: &[Point], scale: &[f32], out: &mut [Point]) {
     for f in fans {
         let (_, w0) = arc(rest, f.joints);
@@ -89,13 +157,91 @@ pub fn place(fans: &[FanVertex], rest: &[Point], now: &[Point], scale: &[f32], o
         } else {
             0.0
         };
-        let g = y0 + u * (y1 - y0);
-        // The radius follows the bones' scales, blended as the angle is.
+        // The own bone's rigid turn and scale, the fan's, and λ(r) between them.
+        let own = f.own as usize;
+        // (On the same branch as g_fan: both from t in [−β, 2π − β).)
+        let (g_own, s_own) = (t + own as f32 * (w1 - w0), scale[f.bones[own] as usize]);
         let mix = s0 + u * (s1 - s0);
-        let s = scale[f.bones[0] as usize] * (1.0 - mix) + scale[f.bones[1] as usize] * mix;
-        let a = a_p + g;
-        out[f.vertex as usize] = now[f.joints[1]] + Vector::new(a.cos(), a.sin()) * (f.r * s);
+        let g_fan = y0 + u * (y1 - y0);
+        let s_fan = scale[f.bones[0] as usize] * (1.0 - mix) + scale[f.bones[1] as usize] * mix;
+        let l = if f.r <= f.r0 {
+            1.0
+        } else {
+            ((f.r1 - f.r) / (f.r1 - f.r0)).clamp(0.0, 1.0)
+        };
+        let at = |g: f32, s: f32| {
+            let a = a_p + g;
+            now[f.joints[1]] + Vector::new(a.cos(), a.sin()) * (f.r * s)
+        };
+        // Stage one's placement differs from a rigid turn only by its needles' stretch: that
+        // difference is carried as the fan hands over.
+        let stretch = out[f.vertex as usize] - at(g_own, s_own);
+        out[f.vertex as usize] =
+            at(l * g_fan + (1.0 - l) * g_own, l * s_fan + (1.0 - l) * s_own) + stretch * (1.0 - l);
     }
+}
+
+/// The narrowest angle (radians) a hinge's bend leaves on either side between its two bones:
+/// a bend past it would squeeze the joint area's triangles on the inside to slivers that a
+/// straight-edged mesh turns over (docs/method.md §5.5). A human elbow or knee closes to about
+/// 30°.
+pub const MIN_ARC: f32 = 0.8;
+
+/// A hinge: joints `[P, J, C]` and every joint of the child's subtree (`C` and below).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hinge {
+    pub joints: [usize; 3],
+    pub subtree: Vec<usize>,
+}
+
+/// The hinges of fan vertices `fans`, root first (by the depth of their joint in `skeleton`).
+pub fn hinges(
+    fans: &[FanVertex],
+    bones: &[(usize, usize)],
+    skeleton: &crate::skeleton::Skeleton,
+) -> Vec<Hinge> {
+    let set: std::collections::BTreeSet<[usize; 3]> = fans.iter().map(|f| f.joints).collect();
+    let mut out: Vec<Hinge> = set
+        .into_iter()
+        .map(|j| {
+            let mut subtree = vec![j[2]];
+            let mut k = 0;
+            while k < subtree.len() {
+                let p = subtree[k];
+                subtree.extend(bones.iter().filter(|b| b.0 == p).map(|b| b.1));
+                k += 1;
+            }
+            Hinge {
+                joints: j,
+                subtree,
+            }
+        })
+        .collect();
+    out.sort_by_key(|h| (skeleton.depth(h.joints[1]), h.joints));
+    out
+}
+
+/// `joints` with every hinge's bend held to leave at least [`MIN_ARC`] on either side: the
+/// child's subtree turned about the joint by what is missing, root first.
+pub fn limit_bends(hinges: &[Hinge], joints: &[Point]) -> Vec<Point> {
+    let mut out = joints.to_vec();
+    for h in hinges {
+        let (_, w) = arc(&out, h.joints);
+        let turn = if w < MIN_ARC {
+            MIN_ARC - w
+        } else if TAU - w < MIN_ARC {
+            (TAU - w) - MIN_ARC
+        } else {
+            continue;
+        };
+        let j = out[h.joints[1]];
+        let (s, c) = turn.sin_cos();
+        for &k in &h.subtree {
+            let d = out[k] - j;
+            out[k] = j + Vector::new(c * d.x - s * d.y, s * d.x + c * d.y);
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -65,6 +65,8 @@ pub struct Rig {
     fans: Vec<fan::FanVertex>,
     /// Rest joints (output px).
     rest_joints: Vec<Point>,
+    /// The hinges whose bends [`fan::limit_bends`] holds open, root first.
+    hinges: Vec<fan::Hinge>,
     rest_len: Vec<f32>,
     rest_dir: Vec<Vector>,
     solver: Option<JointSolver>,
@@ -131,7 +133,15 @@ impl Rig {
                 (l, if l > 1e-6 { d / l } else { Vector::x() })
             })
             .unzip();
-        let fans = hinge_fans(&mesh, &rest_out, &skin, &bones, &joints_out);
+        let fans = fan::fans(
+            &mesh.triangles,
+            &rest_out,
+            &skin,
+            &bones,
+            &joints_out,
+            mesh.spacing_px * scale,
+        );
+        let hinges = fan::hinges(&fans, &bones, skeleton);
         let solver = options
             .stage_two
             .then(|| JointSolver::new(&mesh, &rest_out, &skin));
@@ -153,6 +163,7 @@ impl Rig {
             fill,
             needles,
             fans,
+            hinges,
             rest_joints: joints_out,
             rest_len,
             rest_dir,
@@ -168,6 +179,7 @@ impl Rig {
 
     /// The mesh's vertices (output px) for the joints at `joints` (output px).
     pub fn deform(&self, joints: &[Point]) -> Vec<Point> {
+        let joints = &fan::limit_bends(&self.hinges, joints);
         let mut pos = vec![Point::origin(); self.mesh.rest.len()];
         needle::stage_one(
             &self.needles,
@@ -224,70 +236,3 @@ impl Rig {
             .collect()
     }
 }
-
-/// The fan vertex (docs/method.md §5.5) of every vertex of a joint triangle: the hinge of the
-/// triangle's bones (a child bone starting where its parent ends) whose joint is nearest the
-/// vertex at rest. `rest` are the vertices' and `joints` the joints' rest positions (output px).
-fn hinge_fans(
-    mesh: &Mesh,
-    rest: &[Point],
-    skin: &[u16],
-    bones: &[(usize, usize)],
-    joints: &[Point],
-) -> Vec<fan::FanVertex> {
-    let mut best: Vec<Option<(f32, [usize; 3], [u16; 2])>> = vec![None; rest.len()];
-    for t in &mesh.triangles {
-        let b = t.map(|v| skin[v as usize]);
-        for &p in &b {
-            for &c in &b {
-                let (pb, cb) = (bones[p as usize], bones[c as usize]);
-                if p == c || cb.0 != pb.1 {
-                    continue;
-                }
-                let hinge = [pb.0, pb.1, cb.1];
-                for &v in t {
-                    let d = (rest[v as usize] - joints[pb.1]).norm();
-                    let slot = &mut best[v as usize];
-                    if slot.map_or(true, |s| d < s.0) {
-                        *slot = Some((d, hinge, [p, c]));
-                    }
-                }
-            }
-        }
-    }
-    // Every other vertex of a hinge's two bones that lies off its own bone's way from the joint
-    // (beside or past it), so the fan reaches past the joint triangles (the nearest hinge).
-    let hinges: std::collections::BTreeSet<([usize; 3], [u16; 2])> =
-        best.iter().flatten().map(|&(_, j, b)| (j, b)).collect();
-    for (v, slot) in best.iter_mut().enumerate() {
-        if slot.is_some() {
-            continue;
-        }
-        for &(j, b) in &hinges {
-            let Some(own) = b.iter().position(|&x| x == skin[v]) else {
-                continue;
-            };
-            let f = fan::fan_vertex(v as u32, rest[v], j, b, joints);
-            let w0 = fan::fan_vertex(0, joints[j[2]], j, b, joints).t;
-            let off = (f.t - if own == 0 { 0.0 } else { w0 }).rem_euclid(std::f32::consts::TAU);
-            let off = off.min(std::f32::consts::TAU - off);
-            // On the joint's half of its bone, or off its way (past the joint).
-            let near = f.r <= NEAR_SHARE * (joints[j[own + 1]] - joints[j[own]]).norm();
-            if off <= fan::RIGID_HALF_WIDTH / 2.0 && !near {
-                continue;
-            }
-            if slot.map_or(true, |s| f.r < s.0) {
-                *slot = Some((f.r, j, b));
-            }
-        }
-    }
-    best.iter()
-        .enumerate()
-        .filter_map(|(v, b)| {
-            b.map(|(_, j, bs)| fan::fan_vertex(v as u32, rest[v], j, bs, joints))
-        })
-        .collect()
-}
-
-/// Share of a hinged bone's length, from the joint, over which its vertices join the fan.
-const NEAR_SHARE: f32 = 0.5;
