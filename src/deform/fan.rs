@@ -211,10 +211,7 @@ pub fn hinges(
                 subtree.extend(bones.iter().filter(|b| b.0 == p).map(|b| b.1));
                 k += 1;
             }
-            Hinge {
-                joints: j,
-                subtree,
-            }
+            Hinge { joints: j, subtree }
         })
         .collect();
     out.sort_by_key(|h| (skeleton.depth(h.joints[1]), h.joints));
@@ -300,5 +297,36 @@ mod tests {
             // And the one up the parent's way (k = 12) stayed.
             assert!((out[12] - ring[12]).norm() < 1e-3, "bent {deg}°");
         }
+    }
+
+    /// An arm folded back to 0.2 rad at the elbow is opened to MIN_ARC, the hand turning with
+    /// the forearm and every bone keeping its length; a bend of 1 rad is left alone.
+    #[test]
+    fn a_bend_sharper_than_the_limit_is_opened_and_a_milder_one_kept() {
+        let h = [Hinge {
+            joints: [0, 1, 2],
+            subtree: vec![2, 3],
+        }];
+        let at = |inner: f32| {
+            let d = Vector::new(inner.sin(), -inner.cos());
+            [
+                Point::new(0.0, 0.0),
+                Point::new(0.0, 30.0),
+                Point::new(0.0, 30.0) + d * 25.0,
+                Point::new(0.0, 30.0) + d * 35.0,
+            ]
+        };
+        let folded = at(0.2);
+        let out = limit_bends(&h, &folded);
+        let (_, w) = arc(&out, [0, 1, 2]);
+        let inner = w.min(TAU - w);
+        assert!((inner - MIN_ARC).abs() < 1e-4, "inner angle {inner}");
+        assert_eq!(out[..2], folded[..2]);
+        for (a, b) in [(1, 2), (2, 3)] {
+            let (l0, l1) = ((folded[b] - folded[a]).norm(), (out[b] - out[a]).norm());
+            assert!((l0 - l1).abs() < 1e-3, "bone {a}-{b}: {l0} -> {l1}");
+        }
+        let mild = at(1.0);
+        assert_eq!(limit_bends(&h, &mild), mild.to_vec());
     }
 }

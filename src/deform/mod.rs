@@ -3,7 +3,10 @@
 //! Delaunay) → [`skinning`] (vertices to bones without crossing the silhouette) → [`needle`]
 //! (stage one: the variable-length needle model, area preservation) → [`solve`] (stage two:
 //! Gauss-Newton over the joint-area vertices). [`split`] opens the mesh between parts hinged on
-//! one joint (siblings), so that a limb can swing past its neighbour.
+//! one joint (siblings), so that a limb can swing past its neighbour, and [`fill`] sews
+//! zero-width strips into those cuts, drawn beneath (§5.4). [`fan`] places a hinge's joint area
+//! by a one-to-one turn about the joint, and holds bends open (§5.5); [`check`] finds folds and
+//! cracks (§5.8).
 //!
 //! A [`Rig`] is built once per character and then deforms the mesh for any pose, each frame on
 //! its own (so frames can be deformed in parallel with identical results).
@@ -116,8 +119,7 @@ impl Rig {
             skin,
             seams,
             fill,
-        } =
-            split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
+        } = split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
         let rest_out: Vec<Point> = mesh
             .rest
             .iter()
