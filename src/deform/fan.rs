@@ -2,7 +2,7 @@
 //! knee, neck) placed by turning them about the joint, the turn blended by their angle around it.
 //!
 //! Around the joint `J` the parent bone points back to `P`, the child on to `C`. A vertex at
-//! rest angle `α` and distance `r` from `J` keeps `r` (times its bones' scale) and takes the
+//! rest angle `α` and distance `r` from `J` keeps `r` and takes the
 //! angle `g(α)`: within `β` of either bone's direction it turns with that bone (rigidly), and on
 //! each of the two arcs between them the angle is stretched or squeezed linearly. `g` is
 //! increasing around the whole turn whatever the bend (each arc keeps a positive width, `β` being
@@ -130,11 +130,13 @@ pub fn fans(
 pub const NEAR_SHARE: f32 = 0.5;
 
 /// Places the fan vertices `fans` into `out`, which holds stage one's placement, for the joints
-/// at `now`, rest joints `rest`, each bone's length scale `scale`.
-pub fn place(fans: &[FanVertex], rest: &[Point], now: &[Point], scale: &[f32], out: &mut [Point]) {
+/// at `now` and rest joints `rest`: stage one's placement turned about the joint by `λ (g − ρ)`.
+/// With the bone's length kept that is the map above; a stretched bone's needles (`s` along,
+/// `1/s` across, docs/method.md eq. 22) keep their area and are turned as they are.
+pub fn place(fans: &[FanVertex], rest: &[Point], now: &[Point], out: &mut [Point]) {
     for f in fans {
         let (_, w0) = arc(rest, f.joints);
-        let (a_p, w1) = arc(now, f.joints);
+        let (_, w1) = arc(now, f.joints);
         let b = RIGID_HALF_WIDTH
             .min(w0 / 4.0)
             .min((TAU - w0) / 4.0)
@@ -142,42 +144,37 @@ pub fn place(fans: &[FanVertex], rest: &[Point], now: &[Point], scale: &[f32], o
             .min((TAU - w1) / 4.0);
         // Knots of g (angles from the parent's direction): rest → now, over [−β, 2π − β).
         let knots = [
-            (-b, -b, 0.0),
-            (b, b, 0.0),
-            (w0 - b, w1 - b, 1.0),
-            (w0 + b, w1 + b, 1.0),
-            (TAU - b, TAU - b, 0.0),
+            (-b, -b),
+            (b, b),
+            (w0 - b, w1 - b),
+            (w0 + b, w1 + b),
+            (TAU - b, TAU - b),
         ];
         let t = (f.t + b).rem_euclid(TAU) - b;
         let k = (0..4).find(|&k| t <= knots[k + 1].0).unwrap_or(3);
-        let (x0, y0, s0) = knots[k];
-        let (x1, y1, s1) = knots[k + 1];
+        let (x0, y0) = knots[k];
+        let (x1, y1) = knots[k + 1];
         let u = if x1 > x0 {
             ((t - x0) / (x1 - x0)).clamp(0.0, 1.0)
         } else {
             0.0
         };
-        // The own bone's rigid turn and scale, the fan's, and λ(r) between them.
-        let own = f.own as usize;
-        // (On the same branch as g_fan: both from t in [−β, 2π − β).)
-        let (g_own, s_own) = (t + own as f32 * (w1 - w0), scale[f.bones[own] as usize]);
-        let mix = s0 + u * (s1 - s0);
+        // The own bone's rigid turn (on the same branch as g: both from t in [−β, 2π − β)), the
+        // fan's, and λ(r) between them.
+        let g_own = t + f.own as f32 * (w1 - w0);
         let g_fan = y0 + u * (y1 - y0);
-        let s_fan = scale[f.bones[0] as usize] * (1.0 - mix) + scale[f.bones[1] as usize] * mix;
         let l = if f.r <= f.r0 {
             1.0
         } else {
             ((f.r1 - f.r) / (f.r1 - f.r0)).clamp(0.0, 1.0)
         };
-        let at = |g: f32, s: f32| {
-            let a = a_p + g;
-            now[f.joints[1]] + Vector::new(a.cos(), a.sin()) * (f.r * s)
-        };
-        // Stage one's placement differs from a rigid turn only by its needles' stretch: that
-        // difference is carried as the fan hands over.
-        let stretch = out[f.vertex as usize] - at(g_own, s_own);
-        out[f.vertex as usize] =
-            at(l * g_fan + (1.0 - l) * g_own, l * s_fan + (1.0 - l) * s_own) + stretch * (1.0 - l);
+        // Stage one placed the vertex by its own bone (turned by g_own, its needle stretched
+        // along and squeezed across, which keeps area): turned on about the joint by what the
+        // fan adds, λ (g − g_own).
+        let j = now[f.joints[1]];
+        let (sn, cs) = (l * (g_fan - g_own)).sin_cos();
+        let d = out[f.vertex as usize] - j;
+        out[f.vertex as usize] = j + Vector::new(cs * d.x - sn * d.y, sn * d.x + cs * d.y);
     }
 }
 
@@ -271,8 +268,10 @@ mod tests {
             .enumerate()
             .map(|(k, &x)| fan_vertex(k as u32, x, j, [0, 1], &rest))
             .collect();
-        let mut out = vec![Point::origin(); 16];
-        place(&fans, &rest, &rest, &[1.0, 1.0], &mut out);
+        // Stage one's placement: every ring vertex is the parent's (fan_vertex's default), and
+        // the parent does not move.
+        let mut out = ring.clone();
+        place(&fans, &rest, &rest, &mut out);
         for (a, b) in out.iter().zip(&ring) {
             assert!((a - b).norm() < 1e-4, "rest not kept: {a:?} {b:?}");
         }
@@ -283,7 +282,8 @@ mod tests {
                 rest[1],
                 rest[1] + Vector::new(-a.sin(), a.cos()) * 20.0,
             ];
-            place(&fans, &rest, &now, &[1.0, 1.0], &mut out);
+            out.copy_from_slice(&ring);
+            place(&fans, &rest, &now, &mut out);
             for k in 0..16 {
                 // Triangles of the joint and two neighbours on the ring: all as at rest (the
                 // ring is listed in increasing angle, so each has the rest's sign).

@@ -192,20 +192,7 @@ impl Rig {
             self.options.area_preservation,
             &mut pos,
         );
-        let scale: Vec<f32> = self
-            .bones
-            .iter()
-            .zip(&self.rest_len)
-            .map(|(&(p, c), &l)| {
-                if l > 1e-6 {
-                    ((joints[c] - joints[p]).norm() / l)
-                        .clamp(needle::SCALE_LIMITS.0, needle::SCALE_LIMITS.1)
-                } else {
-                    1.0
-                }
-            })
-            .collect();
-        fan::place(&self.fans, &self.rest_joints, joints, &scale, &mut pos);
+        fan::place(&self.fans, &self.rest_joints, joints, &mut pos);
         if let Some(s) = &self.solver {
             // Stage two smooths the joint areas, but its edge lengths can push the inside of a
             // sharp bend over: then the fans' placement stands (docs/method.md §5.6).
