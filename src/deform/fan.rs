@@ -1,20 +1,18 @@
-//! Joint fans (docs/method.md §5.5): the vertices of a hinge's joint triangles (§5.4: elbow,
-//! knee, neck) placed by turning them about the joint, the turn blended by their angle around it.
+//! Joint fans (docs/method.md §5.5): the vertices of a hinge's two bones near its joint (elbow,
+//! knee, neck) turned further about the joint, the turn blended by their angle around it.
 //!
-//! Around the joint `J` the parent bone points back to `P`, the child on to `C`. A vertex at
-//! rest angle `α` and distance `r` from `J` keeps `r` and takes the
-//! angle `g(α)`: within `β` of either bone's direction it turns with that bone (rigidly), and on
-//! each of the two arcs between them the angle is stretched or squeezed linearly. `g` is
-//! increasing around the whole turn whatever the bend (each arc keeps a positive width, `β` being
-//! at most a quarter of the narrower arc, at rest and now), so the map is one to one and keeps
-//! orientation: a joint area can be squeezed on the inside of a bend but never turned over.
-//!
-//! Away from the joint the turn hands over to the vertex's own bone: with `λ(r)` 1 up to `r₀`
-//! (the farthest joint-triangle vertex of the hinge) and falling linearly to 0 at `r₁` (half
-//! the bone's length, at least `r₀` plus a mesh spacing), the vertex takes the angle
-//! `λ g(α) + (1 − λ) ρ(α)`, `ρ` its bone's rigid turn. The angle still grows with `α` on every
-//! circle about the joint (its slope is `λ g' + 1 − λ > 0`), and the distance from the joint is
-//! kept, so the map stays one to one; past `r₁` it is the bone's own (stage one's) placement.
+//! Around the joint `J` the parent bone points back to `P`, the child on to `C`. On a joined
+//! mesh a vertex at rest angle `t` from the parent's direction takes the angle `g(t)`: within `β`
+//! of either bone's direction it turns with that bone (rigidly), and on each of the two arcs
+//! between them the angle is stretched or squeezed linearly. `g` is increasing around the whole
+//! turn whatever the bend (each arc keeps a positive width, `β` being at most a quarter of the
+//! narrower arc, at rest and now). Stage one turned the vertex with its own bone (`ρ(t)`); the
+//! fan turns that placement about the joint by `λ(r) (g(t) − ρ(t))`, `λ` 1 up to `r₀` (the
+//! farthest joint-triangle vertex of the hinge) and falling linearly to 0 at `r₁` (half the
+//! bone's length, at least `r₀` plus a mesh spacing). With the bones' lengths kept, a vertex
+//! keeps its distance from the joint and takes the angle `λ g + (1 − λ) ρ`, which grows with `t`
+//! on every circle about the joint (slope `λ g' + 1 − λ > 0`): the map is one to one and keeps
+//! orientation, so a joint area can be squeezed on the inside of a bend but never turned over.
 
 use crate::geom::{Point, Vector};
 use std::f32::consts::TAU;
