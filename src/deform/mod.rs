@@ -3,12 +3,17 @@
 //! Delaunay) → [`skinning`] (vertices to bones without crossing the silhouette) → [`needle`]
 //! (stage one: the variable-length needle model, area preservation) → [`solve`] (stage two:
 //! Gauss-Newton over the joint-area vertices). [`split`] opens the mesh between parts hinged on
-//! one joint (siblings), so that a limb can swing past its neighbour.
+//! one joint (siblings), so that a limb can swing past its neighbour, and [`fill`] sews
+//! zero-width strips into those cuts, drawn beneath (§5.4). [`fan`] places a hinge's joint area
+//! by a one-to-one turn about the joint, and holds bends open (§5.5); [`check`] finds folds and
+//! cracks (§5.8).
 //!
 //! A [`Rig`] is built once per character and then deforms the mesh for any pose, each frame on
 //! its own (so frames can be deformed in parallel with identical results).
 
 pub mod check;
+pub mod fan;
+pub mod fill;
 pub mod needle;
 pub mod silhouette;
 pub mod skinning;
@@ -55,7 +60,16 @@ pub struct Rig {
     pub draw_order: Vec<u32>,
     /// `(vertex, copy)`: the vertices the hinge split duplicated ([`split::Split::seams`]).
     pub seams: Vec<(u32, u32)>,
+    /// Seam fillers ([`fill::fillers`]): triangles over `mesh.rest` drawn before (beneath) every
+    /// part, spanning the cuts when the parts turn apart (docs/method.md §5.4).
+    pub fill: Vec<[u32; 3]>,
     needles: Vec<Needle>,
+    /// The hinges' joint-area vertices, placed by [`fan::place`] after stage one.
+    fans: Vec<fan::FanVertex>,
+    /// Rest joints (output px).
+    rest_joints: Vec<Point>,
+    /// The hinges whose bends [`fan::limit_bends`] holds open, root first.
+    hinges: Vec<fan::Hinge>,
     rest_len: Vec<f32>,
     rest_dir: Vec<Vector>,
     solver: Option<JointSolver>,
@@ -100,8 +114,12 @@ impl Rig {
         let mesh = triangulate::build_mesh(image, mesh_vertices)?;
         let layer_of_bone: Vec<i32> = bones.iter().map(|&(_, c)| layers[c]).collect();
         let skin = skinning::skin(&mesh, image, rest, &bones, &layer_of_bone);
-        let split::Split { mesh, skin, seams } =
-            split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
+        let split::Split {
+            mesh,
+            skin,
+            seams,
+            fill,
+        } = split::split_hinges(&mesh, &skin, skeleton, &bones, rest);
         let rest_out: Vec<Point> = mesh
             .rest
             .iter()
@@ -117,6 +135,15 @@ impl Rig {
                 (l, if l > 1e-6 { d / l } else { Vector::x() })
             })
             .unzip();
+        let fans = fan::fans(
+            &mesh.triangles,
+            &rest_out,
+            &skin,
+            &bones,
+            &joints_out,
+            mesh.spacing_px * scale,
+        );
+        let hinges = fan::hinges(&fans, &bones, skeleton);
         let solver = options
             .stage_two
             .then(|| JointSolver::new(&mesh, &rest_out, &skin));
@@ -135,7 +162,11 @@ impl Rig {
             bones,
             draw_order,
             seams,
+            fill,
             needles,
+            fans,
+            hinges,
+            rest_joints: joints_out,
             rest_len,
             rest_dir,
             solver,
@@ -150,6 +181,7 @@ impl Rig {
 
     /// The mesh's vertices (output px) for the joints at `joints` (output px).
     pub fn deform(&self, joints: &[Point]) -> Vec<Point> {
+        let joints = &fan::limit_bends(&self.hinges, joints);
         let mut pos = vec![Point::origin(); self.mesh.rest.len()];
         needle::stage_one(
             &self.needles,
@@ -160,15 +192,28 @@ impl Rig {
             self.options.area_preservation,
             &mut pos,
         );
+        fan::place(&self.fans, &self.rest_joints, joints, &mut pos);
         if let Some(s) = &self.solver {
+            // Stage two smooths the joint areas, but its edge lengths can push the inside of a
+            // sharp bend over: then the fans' placement stands (docs/method.md §5.6).
+            let fans = pos.clone();
             s.solve(&mut pos);
+            let folded = |p: &[Point]| {
+                self.mesh
+                    .triangles
+                    .iter()
+                    .any(|&t| !(triangulate::triangle_area(p, t) > 0.0))
+            };
+            if folded(&pos) && !folded(&fans) {
+                pos = fans;
+            }
         }
         pos
     }
 
     /// The folded and cracked triangles of the mesh at vertices `pos` ([`check::defects`]).
     pub fn defects(&self, pos: &[Point]) -> check::Defects {
-        check::defects(&self.mesh, &self.seams, pos)
+        check::defects(&self.mesh, &self.seams, &self.fill, pos)
     }
 
     /// Signed areas (px², positive = as at rest) of the triangles for vertices `pos`.

@@ -20,8 +20,11 @@ pub struct Split {
     /// Bone of each vertex.
     pub skin: Vec<u16>,
     /// `(vertex, copy)`: each duplicate with the vertex it copies (one place at rest, on two
-    /// bones): where the mesh may open.
+    /// bones): where the mesh may open. Only pairs whose two vertices are both drawn (a vertex
+    /// all of whose triangles went to copies is in no triangle).
     pub seams: Vec<(u32, u32)>,
+    /// The seam fillers ([`super::fill::fillers`]) joining the cuts again, drawn beneath.
+    pub fill: Vec<[u32; 3]>,
 }
 
 /// Splits `mesh` (with vertex bones `skin`) at hinges. Vertices keep their indices; duplicates
@@ -76,10 +79,22 @@ pub fn split_hinges(
             *v = new;
         }
     }
+    let mut used = vec![false; out.rest.len()];
+    for t in &out.triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    let fill = super::fill::fillers(mesh, &out);
     Split {
+        seams: copies
+            .into_iter()
+            .map(|((v, _), c)| (v, c))
+            .filter(|&(v, c)| used[v as usize] && used[c as usize])
+            .collect(),
+        fill,
         mesh: out,
         skin: skin_out,
-        seams: copies.into_iter().map(|((v, _), c)| (v, c)).collect(),
     }
 }
 
@@ -123,8 +138,11 @@ mod tests {
             mesh: m,
             skin: s,
             seams,
+            fill,
         } = split_hinges(&mesh, &skin, &skeleton, &bones, &joints);
-        assert_eq!(seams, vec![(1, 5), (2, 4), (3, 6)]);
+        // Vertices 1, 2 and 3 lost every triangle to their copies 5, 4 and 6: nothing drawn can
+        // open there, so no seam is named.
+        assert!(seams.is_empty(), "{seams:?}");
         // Triangle 0 mixes siblings: all its vertices end on one bone (the trunk, nearest root).
         let b0: Vec<u16> = m.triangles[0].iter().map(|&v| s[v as usize]).collect();
         assert_eq!(b0, vec![0, 0, 0]);
@@ -134,5 +152,8 @@ mod tests {
         // Vertices 1, 2 and 3 copied onto the trunk, vertex 2 once for both triangles.
         assert_eq!(m.rest.len(), 7);
         assert_eq!(&s[..4], &skin);
+        // The one edge of two triangles, 0-2, is on vertex 0 and copy 4 in both: no cut, no
+        // filler.
+        assert!(fill.is_empty(), "{fill:?}");
     }
 }

@@ -75,6 +75,16 @@ impl Renderer {
     /// The mesh at vertices `pos` drawn over the backdrop.
     fn draw(&self, pos: &[Point]) -> RgbaImage {
         let mut frame = self.backdrop.clone();
+        // The seam fillers first, beneath every part (docs/method.md §5.4).
+        let under: Vec<u32> = (0..self.rig.fill.len() as u32).collect();
+        draw_mesh(
+            &mut frame,
+            pos,
+            &self.rig.mesh.rest,
+            &self.rig.fill,
+            &under,
+            &self.texture,
+        );
         draw_mesh(
             &mut frame,
             pos,

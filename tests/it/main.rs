@@ -29,6 +29,7 @@ mod run_lock;
 mod run_safety;
 mod scale;
 mod seeds;
+mod seams;
 mod segments;
 mod serve;
 mod serve_detect;
