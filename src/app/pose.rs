@@ -5,6 +5,7 @@ use crate::decode;
 use crate::error::{Error, Result};
 use crate::geom::{JointBox, Point};
 use crate::pose::engine::{models_dir, OrtEngine};
+use crate::pose::blazepose::Landmark;
 use crate::pose::{self, names, ClipLandmarks, Follower, Pick};
 use crate::seed::{SeedJoint, Seeds};
 use crate::track::PoseMode;
@@ -114,11 +115,29 @@ pub fn recorded(run_dir: &Path, mode: PoseMode, frames: u64) -> Result<Option<Cl
     pose::read_csv(&path, frames as usize).map(Some)
 }
 
+/// In `auto`, before tracking: why the cue is left out ([`disagreement`]), from one look at the
+/// seed frame taken as the pass's first look is.
+pub fn check_seed_frame(
+    engine: &mut OrtEngine,
+    clip: &Path,
+    fps: Option<f64>,
+    seeds: &Seeds,
+) -> Result<Option<String>> {
+    let img = decode::read_frame(clip, fps, seeds.frame)?;
+    let lm = Follower::new(engine, around(seeds)).next(&img)?;
+    Ok(disagreement_on(seeds, lm.as_deref()))
+}
+
 /// Why the network is not on the seeds' person on the seed frame (`None` when it is): its
 /// landmarks for the seeded joints lie, in median, further from the seeds than half the torso.
 fn disagreement(seeds: &Seeds, lms: &ClipLandmarks) -> Option<String> {
-    let f = seeds.frame as usize;
-    let Some(Some(lm)) = lms.get(f) else {
+    disagreement_on(seeds, lms.get(seeds.frame as usize).and_then(|l| l.as_deref()))
+}
+
+/// [`disagreement`] with the network's landmarks `lm` of the seed frame.
+fn disagreement_on(seeds: &Seeds, lm: Option<&[Landmark]>) -> Option<String> {
+    let f = seeds.frame;
+    let Some(lm) = lm else {
         return Some(format!("the network sees no person on the seed frame {f}"));
     };
     let torso = pose::torso(lm).max(1.0);

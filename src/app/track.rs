@@ -7,7 +7,7 @@ use crate::progress::Progress;
 use crate::run::session::{Finished, Session};
 use crate::run::{folder, hash_clip, segments, ClipId, Manifest, SegmentRecord};
 use crate::seed::{read_seeds, Seeds};
-use crate::track::{JointEstimate, Status, TrackParams};
+use crate::track::{JointEstimate, PoseMode, Status, TrackParams};
 use std::path::{Path, PathBuf};
 
 /// Options of `mocap2d track`.
@@ -161,11 +161,29 @@ pub fn track_into(
         })?;
     // The pose cue's engine loads before anything is written.
     let pose_mode = opts.params.pose;
+    let mut pose_note = None;
     let engine = if super::pose::wanted(pose_mode, &seeds) {
-        Some(super::pose::load_engine()?)
+        let mut engine = super::pose::load_engine()?;
+        let why = match pose_mode {
+            PoseMode::Auto => {
+                super::pose::check_seed_frame(&mut engine, &opts.clip, opts.fps, &seeds)?
+            }
+            _ => None,
+        };
+        pose_note = why.map(|why| {
+            format!("the pose cue is left out: {why} (`--pose on` uses it all the same)")
+        });
+        pose_note.is_none().then_some(engine)
     } else {
         None
     };
+    // With the cue, the network finds a lost person again: the tracker's whole-frame search
+    // for a lost body is left out (docs/method.md §2.8), and run.toml records it.
+    let mut with_cue = opts.clone();
+    if engine.is_some() {
+        with_cue.params.redetect_after = 0;
+    }
+    let opts = &with_cue;
     if opts.segment_len == 0 {
         return Err(Error::Usage(
             "--segment-len 0: a segment needs at least 1 frame".into(),
@@ -297,7 +315,6 @@ pub fn track_into(
         e => e,
     });
     let mut done = done.map_err(abandon)?;
-    let mut pose_note = None;
     if let Some(pass) = pose_pass {
         progress.start("pose", None);
         let lms = pass.finish();

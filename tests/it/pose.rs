@@ -219,6 +219,14 @@ fn a_persons_seeds_run_the_cue_and_a_flys_do_not() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let pose_csv = std::fs::read_to_string(person.join("pose.csv")).unwrap();
+    // With the cue the network finds a lost person again, and run.toml says the tracker's
+    // whole-frame search was left out; the fly's run keeps it (below).
+    let redetect = |run: &Path| {
+        let text = std::fs::read_to_string(run.join("run.toml")).unwrap();
+        let line = text.lines().find(|l| l.starts_with("redetect_after")).map(str::to_string);
+        line.expect("run.toml records redetect_after")
+    };
+    assert_eq!(redetect(&person), "redetect_after = 0");
     let looks = (0..3).filter(|&f| mocap2d::pose::looks_at(f, 0)).count();
     assert_eq!(looks, 2, "frames 0 and 2");
     assert_eq!(
@@ -247,4 +255,5 @@ fn a_persons_seeds_run_the_cue_and_a_flys_do_not() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(!fly_run.join("pose.csv").exists());
+    assert_ne!(redetect(&fly_run), "redetect_after = 0");
 }
