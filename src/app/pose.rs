@@ -4,8 +4,8 @@
 use crate::decode;
 use crate::error::{Error, Result};
 use crate::geom::{JointBox, Point};
-use crate::pose::engine::{models_dir, OrtEngine};
 use crate::pose::blazepose::Landmark;
+use crate::pose::engine::{models_dir, OrtEngine};
 use crate::pose::{self, names, ClipLandmarks, Follower, Pick};
 use crate::seed::{SeedJoint, Seeds};
 use crate::track::PoseMode;
@@ -131,7 +131,10 @@ pub fn check_seed_frame(
 /// Why the network is not on the seeds' person on the seed frame (`None` when it is): its
 /// landmarks for the seeded joints lie, in median, further from the seeds than half the torso.
 fn disagreement(seeds: &Seeds, lms: &ClipLandmarks) -> Option<String> {
-    disagreement_on(seeds, lms.get(seeds.frame as usize).and_then(|l| l.as_deref()))
+    disagreement_on(
+        seeds,
+        lms.get(seeds.frame as usize).and_then(|l| l.as_deref()),
+    )
 }
 
 /// [`disagreement`] with the network's landmarks `lm` of the seed frame.

@@ -388,10 +388,21 @@ mod tests {
     #[test]
     fn frames_between_looks_stand_on_the_nearer_look_and_a_gap_on_none() {
         let p = vec![];
-        let at: Vec<Option<&Vec<Landmark>>> =
-            [1, 0, 1, 0, 0, 0, 1, 0].iter().map(|&s| (s == 1).then_some(&p)).collect();
+        let at: Vec<Option<&Vec<Landmark>>> = [1, 0, 1, 0, 0, 0, 1, 0]
+            .iter()
+            .map(|&s| (s == 1).then_some(&p))
+            .collect();
         let want = match LOOK_EVERY {
-            2 => vec![Some(0), Some(0), Some(2), None, None, None, Some(6), Some(6)],
+            2 => vec![
+                Some(0),
+                Some(0),
+                Some(2),
+                None,
+                None,
+                None,
+                Some(6),
+                Some(6),
+            ],
             _ => return,
         };
         assert_eq!(nearest_looks(&at), want);
@@ -412,7 +423,10 @@ mod tests {
         for f in (101..120).step_by(2) {
             let off = frames[f][1].x - truth.x;
             assert!((off - 12.0).abs() < 2.0, "frame {f}: {off}");
-            assert_eq!(frames[f][1].status, "low", "frame {f}: the tracker disagrees");
+            assert_eq!(
+                frames[f][1].status, "low",
+                "frame {f}: the tracker disagrees"
+            );
             // The hip, where the tracker agrees with the looks on either side: `ok`.
             assert_eq!(frames[f][0].status, "ok", "frame {f}");
         }

@@ -223,7 +223,10 @@ fn a_persons_seeds_run_the_cue_and_a_flys_do_not() {
     // whole-frame search was left out; the fly's run keeps it (below).
     let redetect = |run: &Path| {
         let text = std::fs::read_to_string(run.join("run.toml")).unwrap();
-        let line = text.lines().find(|l| l.starts_with("redetect_after")).map(str::to_string);
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("redetect_after"))
+            .map(str::to_string);
         line.expect("run.toml records redetect_after")
     };
     assert_eq!(redetect(&person), "redetect_after = 0");
