@@ -22,6 +22,7 @@
 //! greedily: from each key, the farthest next key whose curve (or straight line, written without
 //! a curve when it suffices) holds every frame in between.
 
+use super::keys::dist;
 use super::round;
 
 /// A kept key of a channel reduced with curves.
@@ -420,14 +421,6 @@ pub fn reduce_dragonbones(
     decimals: &[i32],
 ) -> Vec<CurveKey> {
     reduce(values, tol, max_step, &DragonBones { values, decimals })
-}
-
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
 }
 
 #[cfg(test)]

@@ -125,7 +125,8 @@ pub fn interpolate(values: &[Vec<f64>], kept: &[usize], i: usize) -> Vec<f64> {
         .collect()
 }
 
-fn dist(a: &[f64], b: &[f64]) -> f64 {
+/// The Euclidean distance between two key values.
+pub(crate) fn dist(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(x, y)| (x - y) * (x - y))
