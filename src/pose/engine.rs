@@ -121,18 +121,26 @@ impl OrtEngine {
     }
 }
 
-/// ONNX Runtime's environment, its library loaded once a process.
+/// ONNX Runtime's environment, its library loaded once a process. A library that is not there
+/// yet is looked for again at the next call (a server started before `scripts/setup` finds it
+/// once installed); one that was found but failed to load stays failed, as the runtime keeps
+/// its library for the life of the process.
 fn environment(lib: &Path) -> Result<ort::environment::Environment> {
-    static ENV: std::sync::OnceLock<std::result::Result<ort::environment::Environment, String>> =
-        std::sync::OnceLock::new();
-    let env = ENV.get_or_init(|| {
-        if !lib.is_file() {
-            return Err("no such file".to_string());
+    static ENV: std::sync::Mutex<
+        Option<std::result::Result<ort::environment::Environment, String>>,
+    > = std::sync::Mutex::new(None);
+    let mut env = ENV.lock().unwrap_or_else(|e| e.into_inner());
+    let loaded = match &*env {
+        Some(done) => done.clone(),
+        None if !lib.is_file() => Err("no such file".to_string()),
+        None => {
+            let built = ort::init_from(lib)
+                .map_err(|e| e.to_string())
+                .and_then(|b| b.build().map_err(|e| e.to_string()));
+            env.insert(built).clone()
         }
-        let builder = ort::init_from(lib).map_err(|e| e.to_string())?;
-        builder.build().map_err(|e| e.to_string())
-    });
-    env.clone().map_err(|e| {
+    };
+    loaded.map_err(|e| {
         Error::Usage(format!(
             "{}: cannot load ONNX Runtime for the pose cue ({e}); {FIX}",
             lib.display()

@@ -191,7 +191,7 @@ fn cannot_load(e: &crate::error::Error) -> String {
     format!(
         "Detect needs the pose network, which cannot be loaded: {e}. For Detect: run `bash \
          scripts/setup` (it installs ONNX Runtime) and keep the repository's models/ folder (or \
-         set MOCAP2D_MODELS to it), then restart `mocap2d serve`. The rest of this page works \
-         without it."
+         set MOCAP2D_MODELS to it), then press Detect again: the server looks for them at every \
+         press until they load. The rest of this page works without it."
     )
 }

@@ -145,26 +145,7 @@ fn detect_without_the_models_says_so_and_the_server_carries_on() {
     let run_dir = tracked_person(tmp.path(), false);
     let empty = tmp.path().join("no-models");
     std::fs::create_dir(&empty).unwrap();
-    let mut child = Child(
-        bin()
-            .env("MOCAP2D_MODELS", &empty)
-            .args(["serve", s(&run_dir), "--port", "0"])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
-    let first = BufReader::new(child.0.stderr.take().unwrap())
-        .lines()
-        .next()
-        .unwrap()
-        .unwrap();
-    let addr: SocketAddr = first
-        .split("http://")
-        .nth(1)
-        .and_then(|r| r.split('/').next())
-        .and_then(|a| a.parse().ok())
-        .unwrap_or_else(|| panic!("no address in {first:?}"));
+    let (mut child, addr) = serve_with(&run_dir, "MOCAP2D_MODELS", &empty);
     for _ in 0..2 {
         let (st, r, _) = timed(addr, "POST", "/api/frames/1/detect", "{}");
         assert_eq!(st, 503, "{r}");
@@ -181,4 +162,53 @@ fn detect_without_the_models_says_so_and_the_server_carries_on() {
     }
     assert!(child.0.try_wait().unwrap().is_none(), "serve is running");
     assert!(!run_dir.join("keys.toml").exists());
+}
+
+/// `mocap2d serve` with the environment variable `var` set to `value`, and its address.
+fn serve_with(run_dir: &Path, var: &str, value: &Path) -> (Child, SocketAddr) {
+    let mut child = Child(
+        bin()
+            .env(var, value)
+            .args(["serve", s(run_dir), "--port", "0"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let first = BufReader::new(child.0.stderr.take().unwrap())
+        .lines()
+        .next()
+        .unwrap()
+        .unwrap();
+    let addr: SocketAddr = first
+        .split("http://")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .and_then(|a| a.parse().ok())
+        .unwrap_or_else(|| panic!("no address in {first:?}"));
+    (child, addr)
+}
+
+/// A server started before ONNX Runtime is installed answers Detect with 503 naming the
+/// library's path and the fix, and finds the library once it is there, without a restart.
+#[test]
+fn detect_finds_onnx_runtime_installed_after_the_server_started() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run_dir = tracked_person(tmp.path(), false);
+    let lib = tmp.path().join("ort").join("libonnxruntime.so");
+    let (mut child, addr) = serve_with(&run_dir, "MOCAP2D_ONNXRUNTIME", &lib);
+    let (st, r, _) = timed(addr, "POST", "/api/frames/1/detect", "{}");
+    assert_eq!(st, 503, "{r}");
+    let msg = r["error"].as_str().unwrap();
+    assert!(
+        msg.contains(&lib.display().to_string())
+            && msg.contains("cannot load ONNX Runtime")
+            && msg.contains("scripts/setup"),
+        "{msg}"
+    );
+    std::fs::create_dir(lib.parent().unwrap()).unwrap();
+    std::fs::copy(mocap2d::pose::engine::library_path(), &lib).unwrap();
+    let (st, r, _) = timed(addr, "POST", "/api/frames/1/detect", "{}");
+    assert_eq!(st, 200, "{r}");
+    assert!(child.0.try_wait().unwrap().is_none(), "serve is running");
 }
