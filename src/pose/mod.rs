@@ -31,7 +31,7 @@ pub const LOOK_EVERY: usize = 2;
 
 /// Whether the network looks at `frame` of a clip whose seeds are on `seed_frame`.
 pub fn looks_at(frame: usize, seed_frame: usize) -> bool {
-    frame % LOOK_EVERY == 0 || frame == seed_frame
+    frame.is_multiple_of(LOOK_EVERY) || frame == seed_frame
 }
 
 /// The torso's length (px) in a frame's landmarks: shoulder centre to hip centre.

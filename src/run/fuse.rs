@@ -8,6 +8,7 @@
 //! - the tracker's position where it saw the joint, `z = x`, weak;
 //! - a key (the seed frame, a corrected segment file, a key of `keys.toml`), `z = x`, all but
 //!   exact.
+//!
 //! Keys so pin the path on their frame and, through the bias, pull the frames around them. A
 //! left/right swap of the network's sides is settled by the keys: on each frame the network's
 //! sides are read as the nearest key in time reads them.
