@@ -255,16 +255,20 @@ mod tests {
         assert_eq!(p.joints[6].visibility, Some(0.6));
     }
 
-    #[test]
-    fn sides_follow_the_tracked_body_when_the_network_has_them_swapped() {
-        let names_ = skeleton();
-        // The body tracked with its sides the other way round from the network's naming.
-        let tracked: Vec<Point> = [None, Some(12), Some(11), Some(24), Some(23), Some(14)]
+    /// The skeleton's joints on the landmarks of their other side (the body with its sides the
+    /// other way round from the network's naming), the pelvis at (7, 8).
+    fn swapped_body() -> Vec<Point> {
+        [None, Some(12), Some(11), Some(24), Some(23), Some(14)]
             .iter()
             .chain(&[Some(13), Some(26)])
             .map(|l| l.map_or(Point::new(7.0, 8.0), at))
-            .collect();
-        let p = propose(&points(), &names_, &tracked, 1000, 1000).unwrap();
+            .collect()
+    }
+
+    #[test]
+    fn sides_follow_the_tracked_body_when_the_network_has_them_swapped() {
+        let names_ = skeleton();
+        let p = propose(&points(), &names_, &swapped_body(), 1000, 1000).unwrap();
         assert!(p.mirrored && p.swapped_px < p.as_named_px, "{p:?}");
         assert_eq!(
             p.joints[1].pos,
@@ -278,13 +282,8 @@ mod tests {
     #[test]
     fn a_bare_clips_proposal_keeps_the_networks_sides() {
         let names_ = skeleton();
-        // Placed the other way round, as in the test above: the sides are kept all the same.
-        let placed: Vec<Point> = [None, Some(12), Some(11), Some(24), Some(23), Some(14)]
-            .iter()
-            .chain(&[Some(13), Some(26)])
-            .map(|l| l.map_or(Point::new(7.0, 8.0), at))
-            .collect();
-        let p = propose_as_named(&points(), &names_, &placed, 1000, 1000).unwrap();
+        // Placed the other way round: the sides are kept all the same.
+        let p = propose_as_named(&points(), &names_, &swapped_body(), 1000, 1000).unwrap();
         assert!(!p.mirrored && p.swapped_px < p.as_named_px, "{p:?}");
         assert_eq!(
             p.joints[1].pos,

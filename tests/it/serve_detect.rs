@@ -6,10 +6,9 @@
 
 use super::pose::{frames_clip, FRAME_LABELS};
 use super::serve::Served;
-use super::serve_resume::{request, timed, Child};
+use super::serve_resume::{address, request, timed, Child};
 use crate::common::{bin, files, run, s};
 use std::io::{BufRead, BufReader};
-use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 /// A clip of 4 copies of the bundled frame, seeded by `mocap2d seed` (the 17 COCO joints) and
@@ -145,10 +144,20 @@ fn detect_without_the_models_says_so_and_the_server_carries_on() {
     let run_dir = tracked_person(tmp.path(), false);
     let empty = tmp.path().join("no-models");
     std::fs::create_dir(&empty).unwrap();
+    detect_without_models(&[s(&run_dir)], &empty, "/api/frames/1");
+    assert!(!run_dir.join("keys.toml").exists());
+}
+
+/// `mocap2d serve ARGS --port 0` with `MOCAP2D_MODELS` on the empty folder `models`: Detect
+/// answers 503 naming the missing model and the fix, twice, and `GET other` answers 200 after
+/// each; the server is still running at the end.
+pub(crate) fn detect_without_models(args: &[&str], models: &Path, other: &str) {
     let mut child = Child(
         bin()
-            .env("MOCAP2D_MODELS", &empty)
-            .args(["serve", s(&run_dir), "--port", "0"])
+            .env("MOCAP2D_MODELS", models)
+            .arg("serve")
+            .args(args)
+            .args(["--port", "0"])
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::piped())
             .spawn()
@@ -159,26 +168,20 @@ fn detect_without_the_models_says_so_and_the_server_carries_on() {
         .next()
         .unwrap()
         .unwrap();
-    let addr: SocketAddr = first
-        .split("http://")
-        .nth(1)
-        .and_then(|r| r.split('/').next())
-        .and_then(|a| a.parse().ok())
-        .unwrap_or_else(|| panic!("no address in {first:?}"));
+    let addr = address(&first);
     for _ in 0..2 {
         let (st, r, _) = timed(addr, "POST", "/api/frames/1/detect", "{}");
         assert_eq!(st, 503, "{r}");
         let msg = r["error"].as_str().unwrap();
-        let model = empty.join("pose_detection.onnx");
+        let model = models.join("pose_detection.onnx");
         assert!(
             msg.contains(&model.display().to_string())
                 && msg.contains("cannot read the pose model")
                 && msg.contains("scripts/setup"),
             "{msg}"
         );
-        let (st, _) = request(addr, "GET", "/api/frames/1", "");
+        let (st, _) = request(addr, "GET", other, "");
         assert_eq!(st, Some(200), "the server answers after a failed Detect");
     }
     assert!(child.0.try_wait().unwrap().is_none(), "serve is running");
-    assert!(!run_dir.join("keys.toml").exists());
 }

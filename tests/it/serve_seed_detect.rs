@@ -7,13 +7,11 @@
 
 use super::pose::{frames_clip, FRAME_LABELS};
 use super::serve::Served;
-use super::serve_resume::{request, timed, Child};
-use crate::common::{bin, run, s};
+use super::serve_detect::detect_without_models;
+use crate::common::{run, s};
 use mocap2d::pose::names::COCO;
 use mocap2d::seed::read_seeds;
 use serde_json::{json, Value};
-use std::io::{BufRead, BufReader};
-use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 /// A skeleton file of joints `names` (each 9 px square, all children of the first), laid in a
@@ -171,48 +169,7 @@ fn seeding_detect_without_the_models_says_so_and_the_server_carries_on() {
     let out = tmp.path().join("seeds.toml");
     let empty = tmp.path().join("no-models");
     std::fs::create_dir(&empty).unwrap();
-    let mut child = Child(
-        bin()
-            .env("MOCAP2D_MODELS", &empty)
-            .args([
-                "serve",
-                s(&clip),
-                "--skeleton",
-                s(&skel),
-                "--seeds-out",
-                s(&out),
-            ])
-            .args(["--port", "0"])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
-    let first = BufReader::new(child.0.stderr.take().unwrap())
-        .lines()
-        .next()
-        .unwrap()
-        .unwrap();
-    let addr: SocketAddr = first
-        .split("http://")
-        .nth(1)
-        .and_then(|r| r.split('/').next())
-        .and_then(|a| a.parse().ok())
-        .unwrap_or_else(|| panic!("no address in {first:?}"));
-    for _ in 0..2 {
-        let (st, r, _) = timed(addr, "POST", "/api/frames/1/detect", "{}");
-        assert_eq!(st, 503, "{r}");
-        let msg = r["error"].as_str().unwrap();
-        let model = empty.join("pose_detection.onnx");
-        assert!(
-            msg.contains(&model.display().to_string())
-                && msg.contains("cannot read the pose model")
-                && msg.contains("scripts/setup"),
-            "{msg}"
-        );
-        let (st, _) = request(addr, "GET", "/api/run", "");
-        assert_eq!(st, Some(200), "the server answers after a failed Detect");
-    }
-    assert!(child.0.try_wait().unwrap().is_none(), "serve is running");
+    let args = [s(&clip), "--skeleton", s(&skel), "--seeds-out", s(&out)];
+    detect_without_models(&args, &empty, "/api/run");
     assert!(!out.exists());
 }
