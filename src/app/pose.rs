@@ -3,7 +3,7 @@
 
 use crate::decode;
 use crate::error::{Error, Result};
-use crate::geom::{JointBox, Point};
+use crate::geom::Point;
 use crate::pose::blazepose::Landmark;
 use crate::pose::engine::{models_dir, OrtEngine};
 use crate::pose::{self, names, ClipLandmarks, Follower, Pick};
@@ -208,8 +208,7 @@ pub fn seed(opts: &SeedOptions) -> Result<SeedSummary> {
         });
     };
     let pts = &lm.points;
-    let torso = pose::torso(pts);
-    let side = ((torso * 0.15).round() as u32).clamp(crate::seed::MIN_BOX_PX, 200);
+    let side = pose::person::seed_side(pts);
     let parents: [(&str, Option<&str>); 17] = [
         ("left_hip", None),
         ("right_hip", Some("left_hip")),
@@ -229,8 +228,6 @@ pub fn seed(opts: &SeedOptions) -> Result<SeedSummary> {
         ("left_ear", Some("left_eye")),
         ("right_ear", Some("right_eye")),
     ];
-    let (w, h) = (img.width() as f32, img.height() as f32);
-    let half = side as f32 / 2.0;
     let mut unsure = Vec::new();
     let joints: Vec<SeedJoint> = parents
         .iter()
@@ -241,14 +238,7 @@ pub fn seed(opts: &SeedOptions) -> Result<SeedSummary> {
             }
             SeedJoint {
                 name: name.to_string(),
-                // The rectangle whole inside the frame (pixel centres on whole numbers).
-                bbox: JointBox {
-                    cx: l.pos.x.clamp(half - 0.5, w - half - 0.5),
-                    cy: l.pos.y.clamp(half - 0.5, h - half - 0.5),
-                    w: side,
-                    h: side,
-                    angle_rad: 0.0,
-                },
+                bbox: pose::person::seed_box(l.pos, side, img.width(), img.height()),
                 parent: parent.map(str::to_string),
                 score: None,
                 status: None,

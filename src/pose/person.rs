@@ -8,7 +8,7 @@ use super::blazepose::{Detection, Landmark, Landmarks};
 use super::engine::Engine;
 use super::{choose, detect, landmarks, landmarks_both_ways, names, Pick};
 use crate::error::Result;
-use crate::geom::Point;
+use crate::geom::{JointBox, Point};
 use image::RgbImage;
 
 /// How many times the network looks again, from the crop its landmarks call for, after the
@@ -65,6 +65,28 @@ pub fn around(points: &[Point]) -> Option<Pick> {
     Some(Pick::Inside(lo, hi))
 }
 
+/// The side (px) of the square a person's joint is seeded with, by `mocap2d seed` and the
+/// seeding page's Detect (docs/guide.md, "seed"): 15 % of the torso of the landmarks `points`,
+/// at least [`crate::seed::MIN_BOX_PX`] and at most 200 px.
+pub fn seed_side(points: &[Landmark]) -> u32 {
+    ((super::torso(points) * 0.15).round() as u32).clamp(crate::seed::MIN_BOX_PX, 200)
+}
+
+/// The `side` px square seeded around `pos`, moved whole inside a `width` × `height` frame
+/// (pixel centres on whole numbers), as [`seed_side`]'s users place it.
+pub fn seed_box(pos: Point, side: u32, width: u32, height: u32) -> JointBox {
+    let (w, h, half) = (width as f32, height as f32, side as f32 / 2.0);
+    // (A frame narrower than the square: its centre, never a panic of `clamp`.)
+    let inside = |v: f32, room: f32| v.clamp(half - 0.5, (room - half - 0.5).max(half - 0.5));
+    JointBox {
+        cx: inside(pos.x, w),
+        cy: inside(pos.y, h),
+        w: side,
+        h: side,
+        angle_rad: 0.0,
+    }
+}
+
 /// One joint of a [`Proposal`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProposedJoint {
@@ -102,6 +124,30 @@ pub fn propose(
     width: u32,
     height: u32,
 ) -> Option<Proposal> {
+    proposal(points, names_, tracked, true, width, height)
+}
+
+/// [`propose`] for a body that is not tracked (the seeding page of a bare clip): the sides are
+/// the network's own, and a joint with no landmark keeps its position in `placed`.
+pub fn propose_as_named(
+    points: &[Landmark],
+    names_: &[String],
+    placed: &[Point],
+    width: u32,
+    height: u32,
+) -> Option<Proposal> {
+    proposal(points, names_, placed, false, width, height)
+}
+
+/// [`propose`], its sides swapped to follow `tracked` only when `follow` is set.
+fn proposal(
+    points: &[Landmark],
+    names_: &[String],
+    tracked: &[Point],
+    follow: bool,
+    width: u32,
+    height: u32,
+) -> Option<Proposal> {
     let map = names::human_joints(names_)?;
     let mean = |side: &dyn Fn(usize) -> usize| {
         let (mut sum, mut n) = (0f32, 0usize);
@@ -115,7 +161,7 @@ pub fn propose(
     };
     let as_named_px = mean(&|l| l);
     let swapped_px = mean(&names::mirror);
-    let mirrored = swapped_px < as_named_px;
+    let mirrored = follow && swapped_px < as_named_px;
     let (hi_x, hi_y) = (width.max(1) as f32 - 1.0, height.max(1) as f32 - 1.0);
     let joints = names_
         .iter()
@@ -209,16 +255,20 @@ mod tests {
         assert_eq!(p.joints[6].visibility, Some(0.6));
     }
 
-    #[test]
-    fn sides_follow_the_tracked_body_when_the_network_has_them_swapped() {
-        let names_ = skeleton();
-        // The body tracked with its sides the other way round from the network's naming.
-        let tracked: Vec<Point> = [None, Some(12), Some(11), Some(24), Some(23), Some(14)]
+    /// The skeleton's joints on the landmarks of their other side (the body with its sides the
+    /// other way round from the network's naming), the pelvis at (7, 8).
+    fn swapped_body() -> Vec<Point> {
+        [None, Some(12), Some(11), Some(24), Some(23), Some(14)]
             .iter()
             .chain(&[Some(13), Some(26)])
             .map(|l| l.map_or(Point::new(7.0, 8.0), at))
-            .collect();
-        let p = propose(&points(), &names_, &tracked, 1000, 1000).unwrap();
+            .collect()
+    }
+
+    #[test]
+    fn sides_follow_the_tracked_body_when_the_network_has_them_swapped() {
+        let names_ = skeleton();
+        let p = propose(&points(), &names_, &swapped_body(), 1000, 1000).unwrap();
         assert!(p.mirrored && p.swapped_px < p.as_named_px, "{p:?}");
         assert_eq!(
             p.joints[1].pos,
@@ -227,6 +277,33 @@ mod tests {
         );
         assert_eq!(p.joints[7].pos, at(26), "knee_l takes the right knee");
         assert_eq!(p.joints[7].visibility, Some(0.6));
+    }
+
+    #[test]
+    fn a_bare_clips_proposal_keeps_the_networks_sides() {
+        let names_ = skeleton();
+        // Placed the other way round: the sides are kept all the same.
+        let p = propose_as_named(&points(), &names_, &swapped_body(), 1000, 1000).unwrap();
+        assert!(!p.mirrored && p.swapped_px < p.as_named_px, "{p:?}");
+        assert_eq!(
+            p.joints[1].pos,
+            at(11),
+            "shoulder_l takes the left shoulder"
+        );
+        assert_eq!(
+            p.joints[0].pos,
+            Point::new(7.0, 8.0),
+            "pelvis stays where placed"
+        );
+    }
+
+    #[test]
+    fn a_seed_box_lies_whole_inside_the_frame() {
+        let b = seed_box(Point::new(1.0, 98.0), 21, 200, 100);
+        assert_eq!((b.cx, b.cy, b.w, b.h), (10.0, 89.0, 21, 21));
+        assert!(b.inside(200, 100), "{b:?}");
+        let c = seed_box(Point::new(50.0, 40.0), 21, 200, 100);
+        assert_eq!((c.cx, c.cy), (50.0, 40.0), "a box inside stays");
     }
 
     #[test]

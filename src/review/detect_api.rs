@@ -20,7 +20,9 @@ use super::api::Api;
 use super::reply::Reply;
 use crate::geom::Point;
 use crate::pose::engine::{models_dir, OrtEngine};
-use crate::pose::{names, person, Pick};
+use crate::pose::person::{self, Found};
+use crate::pose::{names, Pick};
+use image::RgbImage;
 use serde_json::{json, Value};
 use std::sync::Mutex;
 
@@ -33,18 +35,119 @@ pub struct Detector {
     engine: Mutex<Option<OrtEngine>>,
 }
 
+impl Detector {
+    /// The person the first of `picks` that chooses anyone chooses on `img`
+    /// ([`person::find`]), with the engine kept (loaded at the first call); else the error
+    /// reply: 503 when the engine or a model cannot be loaded ([`cannot_load`]), 500 when the
+    /// network fails.
+    pub(super) fn find(&self, img: &RgbImage, picks: &[Pick]) -> Result<Found, Reply> {
+        let mut engine = self.engine.lock().unwrap_or_else(|e| e.into_inner());
+        if engine.is_none() {
+            match OrtEngine::load(&models_dir()) {
+                Ok(e) => *engine = Some(e),
+                Err(e) => return Err(Reply::error(503, cannot_load(&e))),
+            }
+        }
+        let eng = engine.as_mut().expect("loaded above");
+        person::find(eng, img, picks).map_err(|e| Reply::error(500, format!("Detect failed: {e}")))
+    }
+}
+
+/// Why joints named `names_` get no Detect, if they get none: they name no person's body.
+/// `whose` says whose joints they are ("this run's").
+pub(super) fn no_detect(names_: &[String], whose: &str) -> Option<String> {
+    names::human_joints(names_).is_none().then(|| {
+        format!(
+            "Detect finds people, and {whose} joints ({}) do not name a person's body: it needs \
+             a shoulder, a hip and an elbow or knee named as COCO or MediaPipe name them \
+             (left_shoulder, hip_l, l_knee, …). Drag the joints by hand.",
+            names_.join(", ")
+        )
+    })
+}
+
+/// The 404 reply for frame `f` of a clip of `frames` frames, when it is beyond it.
+pub(super) fn beyond_clip(f: u64, frames: Option<u64>) -> Option<Reply> {
+    let n = frames.filter(|&n| f >= n)?;
+    Some(Reply::error(
+        404,
+        format!(
+            "frame {f} is beyond the clip: it has {n} frames (0 to {})",
+            n.saturating_sub(1)
+        ),
+    ))
+}
+
+/// The 422 reply when the network finds no person on frame `f`.
+pub(super) fn no_person(f: u64) -> Reply {
+    Reply::error(
+        422,
+        format!(
+            "the pose network finds no person on frame {f}; place the joints by hand or try a \
+             nearby frame"
+        ),
+    )
+}
+
+/// What a Detect proposal tells the page, beside its joints.
+pub(super) struct Told {
+    /// Joints the network is unsure of.
+    pub unsure: Vec<String>,
+    /// Joints it has no landmark for, which keep their position.
+    pub kept: Vec<String>,
+    pub message: String,
+}
+
+/// The joints of proposal `p` the network is unsure of, those it kept, and the page's message:
+/// `chosen` says which person, `kept_at` where the kept joints stay ("tracked"), `save` the
+/// button that saves the proposal.
+pub(super) fn told(
+    p: &person::Proposal,
+    f: u64,
+    people: usize,
+    chosen: &str,
+    kept_at: &str,
+    save: &str,
+) -> Told {
+    let names_of = |keep: &dyn Fn(Option<f32>) -> bool| -> Vec<String> {
+        p.joints
+            .iter()
+            .filter(|j| keep(j.visibility))
+            .map(|j| j.name.clone())
+            .collect()
+    };
+    let unsure = names_of(&|v| v.is_some_and(|v| v < UNSURE));
+    let kept = names_of(&|v| v.is_none());
+    let mut message = format!(
+        "Proposed {} joints on frame {f} from the pose network ({chosen}{}); not saved: drag \
+         any that are off, then {save}.",
+        p.joints.len() - kept.len(),
+        if people > 1 {
+            format!(", of {people} people found")
+        } else {
+            String::new()
+        }
+    );
+    if !unsure.is_empty() {
+        message += &format!(" The network is unsure of {}.", unsure.join(", "));
+    }
+    if !kept.is_empty() {
+        message += &format!(
+            " It has no landmark for {}: left where {kept_at}.",
+            kept.join(", ")
+        );
+    }
+    Told {
+        unsure,
+        kept,
+        message,
+    }
+}
+
 impl Api {
     /// Why this run gets no Detect, if it gets none: its joints name no person's body.
     pub(super) fn no_detect(&self) -> Option<String> {
-        let names_ = self.names();
-        names::human_joints(&names_).is_none().then(|| {
-            format!(
-                "Detect finds people, and this run's joints ({}) do not name a person's body: \
-                 it needs a shoulder, a hip and an elbow or knee named as COCO or MediaPipe name \
-                 them (left_shoulder, hip_l, l_knee, …). Drag the joints by hand.",
-                names_.join(", ")
-            )
-        })
+        no_detect(&self.names(), "this run's")
     }
 
     /// `POST /api/frames/N/detect` (see the module doc).
@@ -55,14 +158,8 @@ impl Api {
         if let Some(why) = self.no_detect() {
             return Reply::error(400, why);
         }
-        if let Some(n) = self.clip_frames().filter(|&n| f >= n) {
-            return Reply::error(
-                404,
-                format!(
-                    "frame {f} is beyond the clip: it has {n} frames (0 to {})",
-                    n - 1
-                ),
-            );
+        if let Some(r) = beyond_clip(f, self.clip_frames()) {
+            return r;
         }
         if self.resuming() {
             return Reply::error(
@@ -95,35 +192,16 @@ impl Api {
             Ok(i) => i,
             Err(r) => return r,
         };
-        let mut engine = self
-            .detector
-            .engine
-            .lock()
-            .unwrap_or_else(|e| e.into_inner());
-        if engine.is_none() {
-            match OrtEngine::load(&models_dir()) {
-                Ok(e) => *engine = Some(e),
-                Err(e) => return Reply::error(503, cannot_load(&e)),
-            }
-        }
-        let eng = engine.as_mut().expect("loaded above");
         let picks: Vec<Pick> = person::around(&tracked)
             .into_iter()
             .chain([Pick::Largest])
             .collect();
-        let found = match person::find(eng, &img, &picks) {
+        let found = match self.detector.find(&img, &picks) {
             Ok(found) => found,
-            Err(e) => return Reply::error(500, format!("Detect failed: {e}")),
+            Err(r) => return r,
         };
-        drop(engine);
         let (Some(lm), Some((_, pick))) = (found.landmarks, found.person) else {
-            return Reply::error(
-                422,
-                format!(
-                    "the pose network finds no person on frame {f}; key the joints by hand or \
-                     try a nearby frame"
-                ),
-            );
+            return no_person(f);
         };
         let m = &self.data.manifest;
         let Some(p) = person::propose(&lm.points, &names_, &tracked, m.width, m.height) else {
@@ -134,18 +212,7 @@ impl Api {
         } else {
             "the largest person (none is around the tracked body)"
         };
-        let unsure: Vec<&str> = p
-            .joints
-            .iter()
-            .filter(|j| j.visibility.is_some_and(|v| v < UNSURE))
-            .map(|j| j.name.as_str())
-            .collect();
-        let kept: Vec<&str> = p
-            .joints
-            .iter()
-            .filter(|j| j.visibility.is_none())
-            .map(|j| j.name.as_str())
-            .collect();
+        let t = told(&p, f, found.people, chosen, "tracked", "Save key");
         let joints: Vec<Value> = p
             .joints
             .iter()
@@ -156,38 +223,19 @@ impl Api {
                 })
             })
             .collect();
-        let mut message = format!(
-            "Proposed {} joints on frame {f} from the pose network ({chosen}{}); not saved: \
-             drag any that are off, then Save key.",
-            p.joints.len() - kept.len(),
-            if found.people > 1 {
-                format!(", of {} people found", found.people)
-            } else {
-                String::new()
-            }
-        );
-        if !unsure.is_empty() {
-            message += &format!(" The network is unsure of {}.", unsure.join(", "));
-        }
-        if !kept.is_empty() {
-            message += &format!(
-                " It has no landmark for {}: left where tracked.",
-                kept.join(", ")
-            );
-        }
         Reply::json(
             200,
             &json!({
                 "frame": f, "saved": false, "joints": joints, "people": found.people,
                 "chosen": chosen, "person": lm.person, "mirrored": p.mirrored,
-                "unsure": unsure, "kept": kept, "message": message,
+                "unsure": t.unsure, "kept": t.kept, "message": t.message,
             }),
         )
     }
 }
 
 /// The page's message when the engine or a model cannot be loaded (`e` names the path).
-fn cannot_load(e: &crate::error::Error) -> String {
+pub(super) fn cannot_load(e: &crate::error::Error) -> String {
     format!(
         "Detect needs the pose network, which cannot be loaded: {e}. For Detect: run `bash \
          scripts/setup` (it installs ONNX Runtime) and keep the repository's models/ folder (or \

@@ -13,10 +13,15 @@
 //!   never overwritten unless it holds what this page last wrote there: the first save refuses
 //!   (409) when the file has appeared since the start, and a later one when it was changed by
 //!   hand.
+//! - `POST /api/frames/N/detect`: the pose network's proposal of the joints on frame N, written
+//!   nowhere (see [`detect`]); `GET /api/run` says in `no_detect` why a skeleton gets none.
 //! - `POST /api/seeds/track`: runs `mocap2d track CLIP --seeds SEEDS.toml` when the app supplies
 //!   it (501 otherwise), once the seeds are saved (409 before).
 
+mod detect;
+
 use super::api::{apply_boxes, BoxEdit};
+use super::detect_api::Detector;
 use super::frame_cache::FrameCache;
 use super::reply::{json_body, Reply};
 use super::serve::{page_asset, path_parts, Pages};
@@ -54,6 +59,8 @@ pub struct SeedApi {
     tracking: AtomicBool,
     /// Set when the server stops: a track under way stops at its next checkpoint.
     stopping: AtomicBool,
+    /// The pose engine of the page's Detect.
+    detector: Detector,
 }
 
 #[derive(Debug, Deserialize)]
@@ -119,6 +126,7 @@ impl SeedApi {
             track,
             tracking: AtomicBool::new(false),
             stopping: AtomicBool::new(false),
+            detector: Detector::default(),
         })
     }
 
@@ -170,7 +178,7 @@ impl SeedApi {
                 "width": self.width, "height": self.height, "frames": self.frames,
                 "frame": frame, "joints": joints, "segments": [], "broken": [],
                 "resume": false, "track": self.track.is_some(), "saved": saved.is_some(),
-                "command": self.command(),
+                "command": self.command(), "no_detect": self.no_detect(),
             }),
         )
     }
@@ -315,8 +323,9 @@ impl Pages for SeedApi {
             ["", "api", "frames", n, "frame.png"] if get => self.cache.png(&self.clip, None, n),
             ["", "api", "seeds"] if post => self.save(body),
             ["", "api", "seeds", "track"] if post => self.track(),
+            ["", "api", "frames", n, "detect"] if post => self.detect(n, body),
             ["", "api", "run"]
-            | ["", "api", "frames", _, "frame.png"]
+            | ["", "api", "frames", _, "frame.png" | "detect"]
             | ["", "api", "seeds"]
             | ["", "api", "seeds", "track"] => {
                 Reply::error(405, format!("{method} is not allowed on {path}"))

@@ -14,8 +14,8 @@
 //!   nowhere (see [`super::detect_api`]).
 //!
 //! The seeding page of a bare clip (`serve CLIP --seeds-out FILE`) answers `GET /api/run`,
-//! `GET /api/frames/N/frame.png`, `POST /api/seeds` and `POST /api/seeds/track` instead (see
-//! [`super::seed_api`]).
+//! `GET /api/frames/N/frame.png`, `POST /api/frames/N/detect`, `POST /api/seeds` and
+//! `POST /api/seeds/track` instead (see [`super::seed_api`]).
 //!
 //! Segment ids and frame numbers are digits, and every file served or written is a segment
 //! file or `keys.toml` of the run folder, the seed file named at start, the clip, or an embedded

@@ -6,7 +6,8 @@
 // seeding page of the bare clip (`serve clip.mp4 --skeleton joints.toml --seeds-out first.toml`):
 // go to frame 20, step by keys, drag the head, save the seeds, check the file and that `track`
 // reads it, and track from the page. Detect: disabled on the walk (not a person); on a person's
-// run of the bundled frame, its proposal shows unsaved and saves as a key. Leaves screenshots.
+// run of the bundled frame, its proposal shows unsaved and saves as a key; on the seeding page
+// of the bundled frame, it moves the joints onto the person, unsaved. Leaves screenshots.
 //
 //   node tests/browser/e2e.mjs            (MOCAP2D: the binary, default cargo's target/debug/mocap2d;
 //                                          CHROMIUM: default /usr/bin/chromium;
@@ -102,6 +103,7 @@ async function serve(...args) {
 }
 const [server, url] = await serve("r.mocap");
 let seeder = null;
+let seeder2 = null;
 let detecter = null;
 
 const browser = await chromium.launch({
@@ -367,10 +369,40 @@ try {
   const tmsg = await sp.textContent("#message");
   check(tmsg.startsWith("tracked 14 joints over 30 frames") && fs.existsSync(path.join(work, "clip.mocap/tracks.csv")),
     `Track on the page answers: ${tmsg}`);
+  const sdet = await sp.evaluate(() => ({ disabled: document.querySelector("#seeddetect").disabled,
+    title: document.querySelector("#seeddetect").title }));
+  check(sdet.disabled && sdet.title.includes("do not name a person's body"),
+    `Detect disabled on the walk's seeding page, saying why: ${JSON.stringify(sdet)}`);
+
+  // The seeding page of the bundled frame, the person's skeleton (from `mocap2d seed`) piled in
+  // its top-left corner: d moves the joints onto the person, where `seed` put them, unsaved.
+  const pile = fs.readFileSync(path.join(work, "person.toml"), "utf8")
+    .replace(/^x = .*$/gm, "x = 20").replace(/^y = .*$/gm, "y = 20");
+  fs.writeFileSync(path.join(work, "pile.toml"), pile);
+  let pseedUrl;
+  [seeder2, pseedUrl] = await serve("person", "--skeleton", "pile.toml", "--seeds-out", "pfirst.toml");
+  const pp = await browser.newPage({ viewport: { width: 1000, height: 720 } });
+  pp.on("pageerror", (e) => check(false, `no script error on the person's seeding page (${e.message})`));
+  await pp.goto(pseedUrl);
+  await pp.locator('g.joint[data-name="nose"] rect.body').waitFor();
+  await pp.waitForFunction(() => !document.querySelector("#seeddetect").disabled);
+  await pp.keyboard.press("d");
+  await pp.waitForFunction(() => ["ok", "error"].includes(document.querySelector("#message").className)
+    && !/^Detecting/.test(document.querySelector("#message").textContent), null, { timeout: 60000 });
+  const pmsg = await pp.textContent("#message");
+  check(pmsg.startsWith("Proposed 17 joints on frame 0"), `Detect on the seeding page answers: ${pmsg}`);
+  const pnose = await pp.evaluate(() => joints.find((j) => j.name === "nose"));
+  const snose = joint(fs.readFileSync(path.join(work, "person.toml"), "utf8"), "nose");
+  check(Math.abs(pnose.x - snose.x) < 0.01 && Math.abs(pnose.y - snose.y) < 0.01 && pnose.w === snose.w
+    && pnose.placed && !(await pp.isDisabled("#save")),
+    `d moved the nose onto the person as seed does: ${JSON.stringify(pnose)} vs ${JSON.stringify(snose)}`);
+  check(!fs.existsSync(path.join(work, "pfirst.toml")), "Detect on the seeding page saved nothing");
+  await pp.screenshot({ path: shot.replace(/\.png$/, "-seed-detect.png"), fullPage: true });
 } finally {
   await browser.close();
   server.kill();
   if (seeder) seeder.kill();
+  if (seeder2) seeder2.kill();
   if (detecter) detecter.kill();
   fs.rmSync(work, { recursive: true, force: true });
 }

@@ -36,6 +36,7 @@ mod serve_detect;
 mod serve_http;
 mod serve_keys;
 mod serve_resume;
+mod serve_seed_detect;
 mod serve_seeds;
 mod signals;
 mod synth;

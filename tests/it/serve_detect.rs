@@ -6,7 +6,7 @@
 
 use super::pose::{frames_clip, FRAME_LABELS};
 use super::serve::Served;
-use super::serve_resume::{request, timed, Child};
+use super::serve_resume::{address, request, timed, Child};
 use crate::common::{bin, files, run, s};
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
@@ -145,31 +145,41 @@ fn detect_without_the_models_says_so_and_the_server_carries_on() {
     let run_dir = tracked_person(tmp.path(), false);
     let empty = tmp.path().join("no-models");
     std::fs::create_dir(&empty).unwrap();
-    let (mut child, addr) = serve_with(&run_dir, "MOCAP2D_MODELS", &empty);
+    detect_without_models(&[s(&run_dir)], &empty, "/api/frames/1");
+    assert!(!run_dir.join("keys.toml").exists());
+}
+
+/// `mocap2d serve ARGS --port 0` with `MOCAP2D_MODELS` on the empty folder `models`: Detect
+/// answers 503 naming the missing model and the fix, twice, and `GET other` answers 200 after
+/// each; the server is still running at the end.
+pub(crate) fn detect_without_models(args: &[&str], models: &Path, other: &str) {
+    let (mut child, addr) = serve_with(args, "MOCAP2D_MODELS", models);
     for _ in 0..2 {
         let (st, r, _) = timed(addr, "POST", "/api/frames/1/detect", "{}");
         assert_eq!(st, 503, "{r}");
         let msg = r["error"].as_str().unwrap();
-        let model = empty.join("pose_detection.onnx");
+        let model = models.join("pose_detection.onnx");
         assert!(
             msg.contains(&model.display().to_string())
                 && msg.contains("cannot read the pose model")
                 && msg.contains("scripts/setup"),
             "{msg}"
         );
-        let (st, _) = request(addr, "GET", "/api/frames/1", "");
+        let (st, _) = request(addr, "GET", other, "");
         assert_eq!(st, Some(200), "the server answers after a failed Detect");
     }
     assert!(child.0.try_wait().unwrap().is_none(), "serve is running");
-    assert!(!run_dir.join("keys.toml").exists());
 }
 
-/// `mocap2d serve` with the environment variable `var` set to `value`, and its address.
-fn serve_with(run_dir: &Path, var: &str, value: &Path) -> (Child, SocketAddr) {
+/// `mocap2d serve ARGS --port 0` with the environment variable `var` set to `value`, and the
+/// address it serves on.
+fn serve_with(args: &[&str], var: &str, value: &Path) -> (Child, SocketAddr) {
     let mut child = Child(
         bin()
             .env(var, value)
-            .args(["serve", s(run_dir), "--port", "0"])
+            .arg("serve")
+            .args(args)
+            .args(["--port", "0"])
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::piped())
             .spawn()
@@ -180,12 +190,7 @@ fn serve_with(run_dir: &Path, var: &str, value: &Path) -> (Child, SocketAddr) {
         .next()
         .unwrap()
         .unwrap();
-    let addr: SocketAddr = first
-        .split("http://")
-        .nth(1)
-        .and_then(|r| r.split('/').next())
-        .and_then(|a| a.parse().ok())
-        .unwrap_or_else(|| panic!("no address in {first:?}"));
+    let addr = address(&first);
     (child, addr)
 }
 
@@ -196,7 +201,7 @@ fn detect_finds_onnx_runtime_installed_after_the_server_started() {
     let tmp = tempfile::tempdir().unwrap();
     let run_dir = tracked_person(tmp.path(), false);
     let lib = tmp.path().join("ort").join("libonnxruntime.so");
-    let (mut child, addr) = serve_with(&run_dir, "MOCAP2D_ONNXRUNTIME", &lib);
+    let (mut child, addr) = serve_with(&[s(&run_dir)], "MOCAP2D_ONNXRUNTIME", &lib);
     let (st, r, _) = timed(addr, "POST", "/api/frames/1/detect", "{}");
     assert_eq!(st, 503, "{r}");
     let msg = r["error"].as_str().unwrap();

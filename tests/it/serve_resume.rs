@@ -78,6 +78,16 @@ fn segment_body(addr: SocketAddr, id: &str) -> String {
 /// A child process, killed if the test fails while it runs.
 pub(crate) struct Child(pub(crate) std::process::Child);
 
+/// The address in `mocap2d serve`'s first line (`… on http://ADDR/ …`).
+pub(crate) fn address(first: &str) -> SocketAddr {
+    first
+        .split("http://")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .and_then(|a| a.parse().ok())
+        .unwrap_or_else(|| panic!("no address in {first:?}"))
+}
+
 impl Drop for Child {
     fn drop(&mut self) {
         let _ = self.0.kill();
@@ -105,12 +115,7 @@ fn saves_during_a_page_resume_get_409_at_once_and_ctrl_c_stops_cleanly() {
     let child = &mut child.0;
     let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
     let first = lines.next().unwrap().unwrap();
-    let addr: SocketAddr = first
-        .split("http://")
-        .nth(1)
-        .and_then(|r| r.split('/').next())
-        .and_then(|a| a.parse().ok())
-        .unwrap_or_else(|| panic!("no address in {first:?}"));
+    let addr = address(&first);
     let rest = std::thread::spawn(move || lines.map_while(|l| l.ok()).collect::<Vec<_>>());
 
     let seg_body = segment_body(addr, "002");

@@ -185,15 +185,32 @@ function removeKey() {
 // Detect: the pose network's proposal for this frame (POST /api/frames/N/detect, which saves
 // nothing), shown as joints moved but not saved; the user drags any that are off and saves them
 // as any key. Disabled, saying why, on a run whose joints are not a person's.
+// The seeding page's Detect (seeds.js) shares `detecting`, `showDetect` and `askDetect`.
 let detecting = false;
 
-function setDetectButton() {
-  const b = $("#detect");
-  const why = run && run.no_detect;
-  b.disabled = Boolean(why) || detecting || !kframe;
-  b.title = why || "propose this frame's joints from the pose network (d); nothing is saved until Save key";
+// Shows Detect button `b`: disabled, with the reason `why` as its tooltip (else `title`), when
+// the joints are not a person's, while the network runs (busy) or when `off`.
+function showDetect(b, why, off, title) {
+  b.disabled = Boolean(why) || detecting || off;
+  b.title = why || title;
   b.textContent = detecting ? "Detecting…" : "Detect";
   b.classList.toggle("busy", detecting);
+}
+
+function setDetectButton() {
+  showDetect($("#detect"), run && run.no_detect, !kframe,
+    "propose this frame's joints from the pose network (d); nothing is saved until Save key");
+}
+
+// POST /api/frames/n/detect with `body`; a server that does not answer is an error answer.
+async function askDetect(n, body) {
+  try {
+    return await call(`/api/frames/${n}/detect`, {
+      method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(body),
+    });
+  } catch (e) {
+    return { ok: false, body: { error: `no answer from the server (${e.message})` } };
+  }
 }
 
 async function detect() {
@@ -204,14 +221,7 @@ async function detect() {
   detecting = true;
   setDetectButton();
   say(`Detecting the person on frame ${n}…`);
-  let r;
-  try {
-    r = await call(`/api/frames/${n}/detect`, {
-      method: "POST", headers: { "Content-Type": "application/json" }, body: "{}",
-    });
-  } catch (e) {
-    r = { ok: false, body: { error: `no answer from the server (${e.message})` } };
-  }
+  const r = await askDetect(n, {});
   detecting = false;
   setDetectButton();
   // The user went to another frame while the network ran: its answer is not for this one.

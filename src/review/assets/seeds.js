@@ -1,8 +1,10 @@
 // mocap2d seeding page (`serve CLIP --skeleton FILE --seeds-out SEEDS.toml`, docs/guide.md
 // "serve"): the skeleton's rectangles over any frame of the clip, moved and resized with the
 // segment editor of app.js (its stage, drag handles, arrow keys and table), saved as the clip's
-// first seed file (POST /api/seeds) and tracked (POST /api/seeds/track). Uses `run`, `seg`,
-// `joints`, `dirty`, `buildStage`, `setDirty`, `call`, `say` and `$` of app.js.
+// first seed file (POST /api/seeds) and tracked (POST /api/seeds/track); Detect (d) proposes a
+// person's joints from the pose network (POST /api/frames/N/detect). Uses `run`, `seg`,
+// `joints`, `dirty`, `buildStage`, `update`, `setDirty`, `call`, `say` and `$` of app.js, and
+// `detecting`, `showDetect` and `askDetect` of keys.js.
 "use strict";
 
 let seedSaved = null; // POST /api/seeds answer
@@ -14,13 +16,16 @@ function startSeeds() {
   $("#save").textContent = "Save seeds";
   $("#save").onclick = saveSeeds;
   $("#track").onclick = trackSeeds;
+  $("#seeddetect").onclick = seedDetect;
   $("#goframe").onsubmit = (ev) => { ev.preventDefault(); seedFrame(Number($("#frameno").value)); };
   $("#seedprev").onclick = () => seedFrame(seg.frame - 1);
   $("#seednext").onclick = () => seedFrame(seg.frame + 1);
-  // , . step a frame back and forward, as ◀ ▶ do (the arrow keys nudge the selected rectangle).
+  // , . step a frame back and forward, as ◀ ▶ do (the arrow keys nudge the selected rectangle),
+  // and d is Detect.
   document.addEventListener("keydown", (ev) => {
     if ($("#editor").hidden || ev.target.tagName === "INPUT") return;
     if (ev.ctrlKey || ev.altKey || ev.metaKey) return;
+    if (ev.key === "d" || ev.key === "D") { ev.preventDefault(); seedDetect(); return; }
     const d = { ",": -1, ".": 1 }[ev.key];
     if (!d) return;
     ev.preventDefault();
@@ -34,6 +39,7 @@ function startSeeds() {
   const want = location.hash.slice(1);
   seedFrame(/^f[0-9]+$/.test(want) ? Number(want.slice(1)) : run.frame);
   setDirty(!run.saved);
+  setSeedDetect();
   showSeedNext();
 }
 
@@ -50,6 +56,40 @@ function seedFrame(n) {
   history.replaceState(null, "", `#f${n}`);
   $("#title").textContent = `frame ${n}`;
   buildStage();
+}
+
+function setSeedDetect() {
+  showDetect($("#seeddetect"), run.no_detect, false,
+    "propose the joints on this frame from the pose network (d); nothing is saved until Save seeds");
+}
+
+// Detect: the network's proposal for the frame shown, around the joints placed so far (else the
+// largest person), moves the joints it has landmarks for, with the rectangles `mocap2d seed`
+// gives them, as unsaved edits; the others stay where they are.
+async function seedDetect() {
+  if (detecting) return;
+  if (run.no_detect) { say(run.no_detect, "error"); return; }
+  const n = seg.frame;
+  if (dirty && joints.some((j) => j.placed) &&
+      !confirm("Replace the joints placed so far with the network's proposal?")) return;
+  detecting = true;
+  setSeedDetect();
+  say(`Detecting the person on frame ${n}…`);
+  const placed = joints.filter((j) => j.placed).map(({ name, x, y }) => ({ name, x, y }));
+  const r = await askDetect(n, { joints: placed });
+  detecting = false;
+  setSeedDetect();
+  // The user went to another frame while the network ran: its answer is not for this one.
+  if (seg.frame !== n) { say(`Detect's proposal for frame ${n} is dropped: another frame is shown.`); return; }
+  if (!r.ok) { say(`Detect: ${r.body ? r.body.error : r.status}`, "error"); return; }
+  for (const p of r.body.joints) {
+    const j = joints.find((k) => k.name === p.name);
+    if (!j || p.from !== "network") continue;
+    Object.assign(j, { x: p.x, y: p.y, w: p.w, h: p.h, angle: p.angle, placed: true });
+  }
+  setDirty(true);
+  update();
+  say(r.body.message, "ok");
 }
 
 function showPlaced() {
