@@ -5,12 +5,13 @@
 //! edit would leave it (it reads back with [`crate::seed::read_seeds`]). The HTTP side is
 //! [`super::serve`].
 
+use super::boxes::{apply_boxes, BoxEdit};
 use super::data::{is_segment_name, RunData, SEGMENTS_DIR};
 use super::draw::png_bytes;
 use super::reply::json_body;
 pub use super::reply::Reply;
 use crate::error::{Error, Result};
-use crate::seed::{parse_seeds, to_toml, SeedJoint, MIN_BOX_PX};
+use crate::seed::{parse_seeds, to_toml};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -63,19 +64,6 @@ impl Drop for Clear<'_> {
     fn drop(&mut self) {
         self.0.store(false, Ordering::SeqCst);
     }
-}
-
-/// A rectangle as the page sends it.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub(super) struct BoxEdit {
-    pub(super) name: String,
-    pub(super) x: f64,
-    pub(super) y: f64,
-    pub(super) w: f64,
-    pub(super) h: f64,
-    #[serde(default)]
-    pub(super) angle: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -412,61 +400,6 @@ impl Api {
     }
 }
 
-/// Sets each of `joints`' rectangle from the page's `edits`, which must give every joint once
-/// (their names as in `file`, for messages); else the 400 reply saying why.
-pub(super) fn apply_boxes(
-    joints: &mut [SeedJoint],
-    edits: &[BoxEdit],
-    file: &str,
-) -> std::result::Result<(), Reply> {
-    let mut seen = vec![false; joints.len()];
-    for b in edits {
-        let Some(i) = joints.iter().position(|j| j.name == b.name) else {
-            return Err(Reply::error(
-                400,
-                format!("joint {:?} is not in {file}", b.name),
-            ));
-        };
-        if std::mem::replace(&mut seen[i], true) {
-            return Err(Reply::error(
-                400,
-                format!("joint {:?} is given twice", b.name),
-            ));
-        }
-        if let Err(msg) = check_box(b) {
-            return Err(Reply::error(400, format!("joint {:?}: {msg}", b.name)));
-        }
-        let bb = &mut joints[i].bbox;
-        (bb.cx, bb.cy) = (b.x as f32, b.y as f32);
-        (bb.w, bb.h) = (b.w as u32, b.h as u32);
-        bb.angle_rad = crate::geom::wrap_angle(b.angle as f32);
-    }
-    match seen.iter().position(|s| !s) {
-        Some(i) => Err(Reply::error(
-            400,
-            format!("joint {:?} is missing; send every joint", joints[i].name),
-        )),
-        None => Ok(()),
-    }
-}
-
-/// Why a rectangle from the page cannot be written, if it cannot.
-fn check_box(b: &BoxEdit) -> std::result::Result<(), String> {
-    for (k, v) in [("x", b.x), ("y", b.y), ("angle", b.angle)] {
-        if !v.is_finite() {
-            return Err(format!("`{k}` must be a finite number"));
-        }
-    }
-    for (k, v) in [("w", b.w), ("h", b.h)] {
-        if v.fract() != 0.0 || v < MIN_BOX_PX as f64 || v > 1e6 {
-            return Err(format!(
-                "`{k}` must be a whole number of px, at least {MIN_BOX_PX}, got {v}"
-            ));
-        }
-    }
-    Ok(())
-}
-
 /// The `#` comment lines (and blank lines) a file starts with.
 fn leading_comment(text: &str) -> String {
     text.lines()
@@ -540,22 +473,6 @@ mod tests {
         let t = "# segment 3\n#\n# frames 10..20\n\nframe = 10\n# not this\n";
         assert_eq!(leading_comment(t), "# segment 3\n#\n# frames 10..20");
         assert_eq!(leading_comment("frame = 1\n"), "");
-    }
-
-    #[test]
-    fn boxes_must_be_whole_and_finite() {
-        let b = |w: f64, x: f64| BoxEdit {
-            name: "a".into(),
-            x,
-            y: 1.0,
-            w,
-            h: 9.0,
-            angle: 0.0,
-        };
-        assert!(check_box(&b(9.0, 3.0)).is_ok());
-        assert!(check_box(&b(9.5, 3.0)).is_err());
-        assert!(check_box(&b(4.0, 3.0)).is_err());
-        assert!(check_box(&b(9.0, f64::NAN)).is_err());
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! outputs (overlay video, confidence plot, segment contact sheet) and the local correction page.
 
 pub mod api;
+mod boxes;
 pub mod data;
 pub mod detect_api;
 pub mod draw;

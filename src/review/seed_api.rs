@@ -20,7 +20,7 @@
 
 mod detect;
 
-use super::api::{apply_boxes, BoxEdit};
+use super::boxes::{apply_boxes, BoxEdit};
 use super::detect_api::Detector;
 use super::frame_cache::FrameCache;
 use super::reply::{json_body, Reply};
