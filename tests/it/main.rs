@@ -35,6 +35,8 @@ mod scale;
 mod seams;
 mod seeds;
 mod segments;
+mod segments_keys;
+mod segments_resume;
 mod serve;
 mod serve_detect;
 mod serve_http;
