@@ -13,6 +13,8 @@ mod batch;
 mod camera;
 mod cleanup;
 mod cli;
+mod cli_accuracy;
+mod cli_errors;
 mod dance;
 mod decode;
 mod eval;
