@@ -43,6 +43,7 @@ use std::path::PathBuf;
 use std::sync::mpsc::Receiver;
 
 mod ahead;
+mod between;
 mod checkpoint;
 mod flow;
 mod pass;

@@ -1,18 +1,87 @@
 //! One segment's tracking: its passes forward, the passes backward from the next correction,
 //! their blend, and between keys the path solved through both ends (docs/method.md §3, "Motion
-//! between keys").
+//! between keys"). The backward passes, the blend and the path are in [`super::between`].
 
+use super::between::Tracked;
 use super::pass::{Appearance, Frames, Pass};
 use super::Session;
-use super::{ahead, flow, spans};
+use super::{ahead, flow};
 use crate::error::Result;
 use crate::geom::Point;
-use crate::run::keyed;
 use crate::run::keys::{self, Key};
-use crate::track::flow::GreyPyramid;
+use crate::run::segments::Start;
 use crate::track::scale::Frame;
-use crate::track::{JointEstimate, Status};
-use image::RgbImage;
+use crate::track::{JointEstimate, Status, Tracker};
+
+/// Segment `k`'s plan: where it starts, and the keys it is tracked and solved through
+/// ([`crate::run::keys`]) with what they decide.
+pub(super) struct SegmentPlan<'a> {
+    /// The segment.
+    pub(super) k: u64,
+    /// Its first frame's index.
+    pub(super) first_frame: u64,
+    /// The next segment's first frame's index.
+    pub(super) next: u64,
+    /// Its first frame (already decoded).
+    pub(super) first: &'a Frame,
+    /// Its file, as read ([`Session::start`]).
+    pub(super) start: Start,
+    /// Each joint's rectangle's smaller side (px): Lucas–Kanade's window between keys.
+    pub(super) boxes: Vec<u32>,
+    /// The first frame's row is the file's (segment 0, or a correction).
+    pub(super) keyframe: bool,
+    /// The segment's file is a correction (not segment 0's).
+    pub(super) corrected: bool,
+    /// The key on the segment's first frame, if any.
+    pub(super) key_here: Option<&'a Key>,
+    /// The keys inside the segment.
+    pub(super) inner: Vec<&'a Key>,
+    /// The key on the next segment's first frame, if any.
+    pub(super) key_next: Option<&'a Key>,
+    /// The keys past the segment's end its last spans run on to ([`ahead::keys_past_end`]).
+    pub(super) past_end: Vec<&'a Key>,
+    /// The segment's frames are held for the passes backward and the path between keys.
+    pub(super) hold: bool,
+    /// A key of every joint lies at or past the segment's end (see [`SegmentPlan::ahead_forward`]).
+    far_key: bool,
+    /// The segment's first frame is a key of every joint (see [`SegmentPlan::ahead_backward`]).
+    start_key: bool,
+    /// The passes that only feed the blend wait for the span's early judgement.
+    pub(super) lean: bool,
+}
+
+impl SegmentPlan<'_> {
+    /// Whether a key of every joint lies on or beyond frame `idx` for a pass run forward.
+    pub(super) fn ahead_forward(&self, idx: u64) -> bool {
+        self.far_key
+            || self
+                .inner
+                .iter()
+                .any(|x| x.frame >= idx && x.gives_every_joint())
+    }
+
+    /// Whether a key of every joint lies on or before frame `idx` for a pass run backward.
+    pub(super) fn ahead_backward(&self, idx: u64) -> bool {
+        self.start_key
+            || self
+                .inner
+                .iter()
+                .any(|x| x.frame <= idx && x.gives_every_joint())
+    }
+
+    /// Builds the forward passes on the segment's first frame, moved onto a key there.
+    pub(super) fn build(&self, session: &Session, appearances: &[Appearance]) -> Result<Vec<Pass>> {
+        let mut passes = Vec::new();
+        for &a in appearances {
+            let mut p = session.tracker_at(&self.start, self.first, a)?;
+            if let Some(key) = self.key_here {
+                p.move_to(key);
+            }
+            passes.push(p);
+        }
+        Ok(passes)
+    }
+}
 
 impl Session {
     /// Tracks segment `k` from its first frame `first` (already decoded) on. Returns its rows
@@ -31,6 +100,59 @@ impl Session {
         Vec<(u64, Vec<JointEstimate>)>,
         Option<(Vec<JointEstimate>, Frame)>,
     )> {
+        let (seg, mut end) = self.plan_segment(k, first, keys)?;
+        let learnt = match (k, self.carried.take()) {
+            (0, _) => None,
+            (_, Some(b)) => Some(b),
+            (_, None) => Some(self.read_state(k)?),
+        };
+        let mut forward = vec![self.tracker_at(
+            &seg.start,
+            first,
+            match &learnt {
+                None => Appearance::Here,
+                Some(b) if seg.corrected => Appearance::LearntMoved(k, b),
+                Some(b) => Appearance::Learnt(k, b),
+            },
+        )?];
+        // The passes that only feed the blend, deferred while the span may be lean (see
+        // `SegmentPlan::lean`).
+        let mut deferred: Vec<Appearance> = Vec::new();
+        if seg.corrected {
+            deferred.push(Appearance::Here);
+            if end.is_some() {
+                deferred.push(Appearance::SeedFrame);
+            }
+        }
+        if !seg.lean {
+            forward.extend(seg.build(self, &deferred)?);
+            deferred.clear();
+        }
+        if let Some(key) = seg.key_here {
+            forward[0].move_to(key);
+        }
+        // Lucas–Kanade's pyramids of the frames held (and the first and the next key's), built
+        // as they arrive, alongside the passes.
+        let mut built = flow::Built::new(seg.hold);
+        built.add(first);
+        let (held, boundary) = self.run_forward(&seg, &mut forward, frames, keys, &mut built)?;
+        let (mut run, tracker) =
+            self.finish_forward(&seg, &mut end, forward, held, boundary, frames.count);
+        let early = self.blend_passes(&seg, end.as_ref(), &mut run, &deferred, &mut built)?;
+        self.solve_path(&seg, end.as_ref(), &mut run, frames, &mut built, early)?;
+        self.refill_gaps(&seg, end.as_ref(), &mut run, &tracker);
+        align_turns(&mut run.out);
+        Ok((run.out, run.at_next.zip(run.boundary)))
+    }
+
+    /// Reads segment `k`'s file and the next one's correction, if any, and plans the segment
+    /// from them and the keys.
+    fn plan_segment<'a>(
+        &self,
+        k: u64,
+        first: &'a Frame,
+        keys: &'a [Key],
+    ) -> Result<(SegmentPlan<'a>, Option<Start>)> {
         let plan = self.plan();
         let next = plan.first_frame(k + 1);
         let mut start = self.start(k)?;
@@ -54,20 +176,6 @@ impl Session {
         }
         let keyframe = k == 0 || start.corrected;
         let corrected = k > 0 && start.corrected;
-        let learnt = match (k, self.carried.take()) {
-            (0, _) => None,
-            (_, Some(b)) => Some(b),
-            (_, None) => Some(self.read_state(k)?),
-        };
-        let mut forward = vec![self.tracker_at(
-            &start,
-            first,
-            match &learnt {
-                None => Appearance::Here,
-                Some(b) if corrected => Appearance::LearntMoved(k, b),
-                Some(b) => Appearance::Learnt(k, b),
-            },
-        )?];
         // Keys of `keys.toml` on this segment's first frame, inside it, and on the next one's
         // first frame ([`crate::run::keys`]).
         let first_frame = plan.first_frame(k);
@@ -90,74 +198,64 @@ impl Session {
             || key_next.is_some_and(Key::gives_every_joint)
             || past_end.iter().any(|x| x.gives_every_joint());
         let start_key = keyframe || key_here.is_some_and(Key::gives_every_joint);
-        let ahead_forward = |idx: u64| {
-            far_key
-                || inner
-                    .iter()
-                    .any(|x| x.frame >= idx && x.gives_every_joint())
-        };
-        let ahead_backward = |idx: u64| {
-            start_key
-                || inner
-                    .iter()
-                    .any(|x| x.frame <= idx && x.gives_every_joint())
-        };
         // Between two corrections with no key inside, the passes that only feed the blend wait
         // until the span is known not to be led by flow ([`keyed::lead`]): where it is,
         // the carried pass and the one backward from the correction decide, at two passes'
         // cost instead of five. Those passes are not even built until then.
         let lean = corrected && end.is_some() && inner.is_empty() && key_next.is_none();
-        let mut deferred: Vec<Appearance> = Vec::new();
-        if corrected {
-            deferred.push(Appearance::Here);
-            if end.is_some() {
-                deferred.push(Appearance::SeedFrame);
-            }
-        }
-        // Builds the forward passes on the segment's first frame, moved onto a key there.
-        let build = |session: &Self, appearances: &[Appearance]| -> Result<Vec<Pass>> {
-            let mut passes = Vec::new();
-            for &a in appearances {
-                let mut p = session.tracker_at(&start, first, a)?;
-                if let Some(key) = key_here {
-                    p.move_to(key);
-                }
-                passes.push(p);
-            }
-            Ok(passes)
+        let seg = SegmentPlan {
+            k,
+            first_frame,
+            next,
+            first,
+            start,
+            boxes,
+            keyframe,
+            corrected,
+            key_here,
+            inner,
+            key_next,
+            past_end,
+            hold,
+            far_key,
+            start_key,
+            lean,
         };
-        if !lean {
-            forward.extend(build(self, &deferred)?);
-            deferred.clear();
-        }
-        if let Some(key) = key_here {
-            forward[0].move_to(key);
-        }
+        Ok((seg, end))
+    }
+
+    /// Runs the forward passes over the segment's frames up to the next segment's first frame
+    /// (or the clip's end), moving them onto the keys inside; returns the frames held and the
+    /// next segment's first frame.
+    fn run_forward<I: Iterator<Item = Result<(u64, Frame)>>>(
+        &self,
+        seg: &SegmentPlan<'_>,
+        forward: &mut [Pass],
+        frames: &mut Frames<'_, I>,
+        keys: &[Key],
+        built: &mut flow::Built,
+    ) -> Result<(Vec<Frame>, Option<Frame>)> {
         let mut held: Vec<Frame> = Vec::new();
         let mut boundary: Option<Frame> = None;
-        // Lucas–Kanade's pyramids of the frames held (and the first and the next key's), built
-        // as they arrive, alongside the passes.
-        let mut built = flow::Built::new(hold);
-        built.add(first);
         while let Some((idx, frame)) = frames.next()? {
             rayon::join(
                 || {
-                    for p in &mut forward {
-                        p.step(idx, &frame, ahead_forward(idx));
+                    for p in forward.iter_mut() {
+                        p.step(idx, &frame, seg.ahead_forward(idx));
                     }
                 },
                 || built.add(&frame),
             );
-            if idx == next {
+            if idx == seg.next {
                 boundary = Some(frame);
                 break;
             }
-            if let Some(key) = inner.iter().find(|x| x.frame == idx) {
-                for p in &mut forward {
+            if let Some(key) = seg.inner.iter().find(|x| x.frame == idx) {
+                for p in forward.iter_mut() {
                     p.move_to(key);
                 }
             }
-            if hold {
+            if seg.hold {
                 held.push(frame);
             }
         }
@@ -167,32 +265,47 @@ impl Session {
             let size = (self.width, self.height);
             keys::check_within(&self.run_dir, &self.names, size, keys, frames.count)?;
         }
+        Ok((held, boundary))
+    }
+
+    /// Finishes the forward passes: keeps the carried tracker's state for the next segment,
+    /// sets the first frame's row from the keyframe or keys, and aligns the correction that
+    /// ends the segment (`end`, `count` frames in the clip so far) to the carried pass.
+    fn finish_forward(
+        &mut self,
+        seg: &SegmentPlan<'_>,
+        end: &mut Option<Start>,
+        forward: Vec<Pass>,
+        mut held: Vec<Frame>,
+        boundary: Option<Frame>,
+        count: u64,
+    ) -> (Tracked, Tracker) {
         let mut passes = forward.into_iter();
         let (mut out, tracker) = passes.next().expect("one forward pass").finish_keep();
         let forward: Vec<Vec<(u64, Vec<JointEstimate>)>> = passes.map(Pass::finish).collect();
         self.carried = Some(tracker.state());
-        if keyframe {
-            out[0].1 = start.row.clone();
-        } else if key_here.is_none()
-            && (!inner.is_empty() || key_next.is_some() || !past_end.is_empty())
+        if seg.keyframe {
+            out[0].1 = seg.start.row.clone();
+        } else if seg.key_here.is_none()
+            && (!seg.inner.is_empty() || seg.key_next.is_some() || !seg.past_end.is_empty())
         {
             // The previous segment's last span ran on to the next key: the row solved on this
             // frame, which the tool wrote into this segment's file ([`ahead`]), is where this
             // segment's first span starts.
-            for (e, s) in out[0].1.iter_mut().zip(&start.row) {
+            for (e, s) in out[0].1.iter_mut().zip(&seg.start.row) {
                 (e.pos, e.score, e.status) = (s.pos, s.score, s.status);
             }
         }
-        if let Some(key) = key_here {
+        if let Some(key) = seg.key_here {
             keyed_row(&mut out[0].1, key);
         }
-        let mut at_next = boundary.as_ref().map(|_| out.pop().expect("pushed").1);
+        let at_next = boundary.as_ref().map(|_| out.pop().expect("pushed").1);
         // Where the carried tracker got to on the next key's frame.
         let mut carried_end: Option<Vec<Point>> =
             at_next.as_ref().map(|r| r.iter().map(|x| x.pos).collect());
         // A correction on the clip's last frame, inside this segment: the last frame held.
-        let tail = match (&mut end, &boundary) {
-            (Some(e), None) if !held.is_empty() && e.seeds.frame + 1 == frames.count => {
+        let tail = match (end, &boundary) {
+            (Some(e), None) if !held.is_empty() && e.seeds.frame + 1 == count => {
                 let last = &mut out.last_mut().expect("held frames were tracked").1;
                 carried_end = Some(last.iter().map(|x| x.pos).collect());
                 e.align_turns(&last.iter().map(|x| x.angle_rad).collect::<Vec<_>>());
@@ -206,301 +319,54 @@ impl Session {
             }
             _ => None,
         };
-        // Each pass's estimates on the frames between the first and the next keyframe (`n`).
-        let between = |p: &[(u64, Vec<JointEstimate>)], n: usize| -> Vec<Vec<JointEstimate>> {
-            p[1..=n].iter().map(|(_, e)| e.clone()).collect()
+        let run = Tracked {
+            out,
+            forward,
+            held,
+            boundary,
+            tail,
+            at_next,
+            carried_end,
         };
-        // The tracker built on the next correction, run backward to this segment's start.
-        let mut back_here: Option<Vec<Vec<Point>>> = None;
-        // Which cue leads the span, when judged before the blend (see `lean`).
-        let mut led_early: Option<keyed::Lead> = None;
-        let mut early_pyramids: Option<Vec<GreyPyramid>> = None;
-        let mut early_ways: Option<keyed::Ways> = None;
-        let passes = if let (Some(end), Some(bf)) = (&end, boundary.as_ref().or(tail.as_ref())) {
-            let n = held.len();
-            let mut passes: Vec<Vec<Vec<JointEstimate>>> = Vec::new();
-            // The tracker built on the correction, run backward over the held frames.
-            let back_pass = |appearance: Appearance| -> Result<Vec<(u64, Vec<JointEstimate>)>> {
-                let mut p = self.tracker_at(end, bf, appearance)?;
-                for (i, f) in held.iter().enumerate().rev() {
-                    let idx = plan.first_frame(k) + 1 + i as u64;
-                    p.step(idx, f, ahead_backward(idx));
-                }
-                let mut back = p.finish();
-                back.reverse();
-                Ok(back)
-            };
-            let images: Vec<&RgbImage> = std::iter::once(first)
-                .chain(held.iter())
-                .chain(Some(bf))
-                .map(|f| f.full())
-                .collect();
-            for appearance in [Appearance::Here, Appearance::SeedFrame] {
-                if matches!(appearance, Appearance::SeedFrame) && lean_enough(led_early) {
-                    break;
-                }
-                // Lucas–Kanade's pyramids and ways between the keys do not depend on the
-                // passes: where the span is to be judged, they are found alongside the first.
-                let judge = lean && led_early.is_none();
-                // (The spare buffers are this thread's: taken here, not on the pool's.)
-                let ready = if judge { built.take() } else { None };
-                let (back, flow) = rayon::join(
-                    || back_pass(appearance),
-                    || {
-                        ready.map(|pyramids| {
-                            flow::follow_flow(
-                                pyramids,
-                                &images,
-                                &out[0].1,
-                                &end.row,
-                                carried_end.is_some() && n > 0,
-                                &boxes,
-                            )
-                        })
-                    },
-                );
-                let back = back?;
-                if back_here.is_none() {
-                    back_here = Some(
-                        back[..n]
-                            .iter()
-                            .map(|(_, r)| r.iter().map(|x| x.pos).collect())
-                            .collect(),
-                    );
-                }
-                passes.push(back[..n].iter().map(|(_, e)| e.clone()).collect());
-                if let Some((pyramids, ways)) = flow {
-                    led_early = Some(flow::early_lead(
-                        ways.as_ref(),
-                        &out[0].1,
-                        &end.row,
-                        carried_end.as_deref(),
-                        &out[1..=n],
-                        &passes[0],
-                        self.params.ok_share,
-                    ));
-                    early_pyramids = Some(pyramids);
-                    early_ways = ways;
-                }
-            }
-            // Between two corrections, the passes that start on them decide: the carried tracker
-            // adds nothing there (on flies, 12 files corrected, it cost 1.5 points), unless the
-            // span is led by flow and the passes built on the keys' appearance were not run.
-            let mut first_passes = Vec::new();
-            if !corrected || lean_enough(led_early) {
-                first_passes.push(between(&out, n));
-            }
-            let later = match lean_enough(led_early) {
-                true => Vec::new(),
-                false => run_over(
-                    build(self, &deferred)?,
-                    first_frame,
-                    &held,
-                    Some((first_frame + 1 + n as u64, bf)),
-                    ahead_forward,
-                ),
-            };
-            first_passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
-            first_passes.extend(passes);
-            first_passes
-        } else if corrected {
-            // After the last correction: the carried tracker and the one built on the
-            // correction.
-            let n = out.len() - 1;
-            let mut passes = vec![between(&out, n)];
-            let later = run_over(
-                build(self, &deferred)?,
-                first_frame,
-                &held,
-                None,
-                ahead_forward,
-            );
-            passes.extend(forward.iter().chain(&later).map(|p| between(p, n)));
-            passes
-        } else {
-            Vec::new()
-        };
-        if !passes.is_empty() {
-            for (row, b) in out[1..]
-                .iter_mut()
-                .zip(crate::run::blend::blend(&passes, self.params.ok_share))
-            {
-                row.1 = b;
-            }
-        }
-        // Between two keys, the path through both ([`crate::run::keyed`]): from the segment's
-        // first frame through every key inside it to the next segment's file when that is a
-        // correction (or the clip's last frame is), to a key on the next segment's first frame,
-        // or on to each joint's next key past the segment's end.
-        let last = boundary.as_ref().or(tail.as_ref());
-        let n = held.len();
-        let ahead = match (past_end.last(), &boundary) {
-            (Some(key), Some(_)) => {
-                // The last frame a key of every joint read ahead lies on, if any.
-                let whole_until = past_end
-                    .iter()
-                    .filter(|x| x.gives_every_joint())
-                    .map(|x| x.frame)
-                    .max();
-                self.read_ahead(k + 1, next, key.frame, whole_until, frames, &mut built)?
-            }
-            _ => None,
-        };
-        let mut anchors: Vec<(usize, Vec<Option<Point>>)> =
-            vec![(0, out[0].1.iter().map(|e| Some(e.pos)).collect())];
-        anchors.extend(
-            inner
-                .iter()
-                .map(|key| ((key.frame - first_frame) as usize, key.joints.clone())),
-        );
-        match (&end, key_next, last) {
-            (Some(end), _, Some(_)) => {
-                anchors.push((n + 1, end.row.iter().map(|e| Some(e.pos)).collect()))
-            }
-            (None, Some(key), Some(_)) if boundary.is_some() => {
-                anchors.push((n + 1, key.joints.clone()))
-            }
-            _ => {}
-        }
-        if ahead.is_some() {
-            for key in &past_end {
-                anchors.push((n + 1 + (key.frame - next) as usize, key.joints.clone()));
-            }
-        }
-        if anchors.len() > 1 {
-            let ahead_frames = ahead.iter().flat_map(|a| a.frames.iter().map(|(_, f)| f));
-            let images: Vec<&RgbImage> = std::iter::once(first)
-                .chain(held.iter())
-                .chain(last)
-                .chain(ahead_frames)
-                .map(|f| f.full())
-                .collect();
-            let ahead_rows = ahead.iter().flat_map(|a| a.rows.iter());
-            // The blend's rows, the next key's frame included (and the frames read ahead).
-            let blended: Vec<&[JointEstimate]> = out
-                .iter()
-                .map(|(_, r)| r.as_slice())
-                .chain(at_next.as_deref())
-                .chain(ahead_rows.map(Vec::as_slice))
-                .collect();
-            let mut track_pos: Vec<Vec<Point>> = blended
-                .iter()
-                .map(|r| r.iter().map(|e| e.pos).collect())
-                .collect();
-            let ok_share = self.params.ok_share;
-            let track_ok: Vec<Vec<bool>> = blended
-                .iter()
-                .map(|r| r.iter().map(|e| e.fits_alone(ok_share)).collect())
-                .collect();
-            let top = anchors.last().expect("two anchors").0;
-            let pyramids: Vec<GreyPyramid> = match early_pyramids.take() {
-                Some(p) => p,
-                None => match built.take() {
-                    Some(mut p) if p.len() == images.len() => {
-                        p.truncate(top + 1);
-                        p
-                    }
-                    _ => flow::pyramids_of(flow::take_spare(), &images[..=top]),
-                },
-            };
-            let between = spans::Between {
-                anchors: &anchors,
-                pyramids: &pyramids,
-                blended: &blended,
-                track_ok: &track_ok,
-                boxes: &boxes,
-                led_early,
-                corrected_end: end.is_some(),
-                back_here: back_here.as_deref(),
-                carried_end: carried_end.as_deref(),
-                ok_share,
-            };
-            let doubt = between.solve(&mut track_pos, early_ways.take());
-            // Kept for the next segment's frames; at the clip's end, let go.
-            if boundary.is_some() {
-                flow::put_spare(pyramids);
-            } else {
-                flow::put_spare(Vec::new());
-            }
-            for (i, (_, row)) in out.iter_mut().enumerate().take(top + 1).skip(1) {
-                for (j, e) in row.iter_mut().enumerate() {
-                    if doubt[i][j].is_nan() {
-                        continue;
-                    }
-                    e.pos = track_pos[i][j];
-                    e.score = keyed::score(doubt[i][j]);
-                    e.status = keyed::status(doubt[i][j]);
-                }
-            }
-            // The next segment's first frame, on a span that runs on past it: the row it starts
-            // from.
-            if let (Some(_), Some(row)) = (&ahead, at_next.as_mut()) {
-                for (j, e) in row.iter_mut().enumerate() {
-                    if !doubt[n + 1][j].is_nan() {
-                        e.pos = track_pos[n + 1][j];
-                        e.score = keyed::score(doubt[n + 1][j]);
-                        e.status = keyed::status(doubt[n + 1][j]);
-                    }
-                }
-            }
-            for key in &inner {
-                keyed_row(&mut out[(key.frame - first_frame) as usize].1, key);
-            }
-            if let (None, Some(key), Some(row)) = (&end, key_next, at_next.as_mut()) {
-                keyed_row(row, key);
-            }
-        }
-        // The frames read ahead are the next segment's.
-        if let Some(a) = ahead {
-            frames.unread(a.frames);
-        }
+        (run, tracker)
+    }
+
+    /// Fills the hidden stretches of the segment's rows again, up to the correction that ends
+    /// it if any, with the carried `tracker`'s gap filler.
+    fn refill_gaps(
+        &self,
+        seg: &SegmentPlan<'_>,
+        end: Option<&Start>,
+        run: &mut Tracked,
+        tracker: &Tracker,
+    ) {
         // Hidden stretches are filled again over the whole segment at once, between where the
         // joint was seen on either side and with the frames around each gap at hand (the pass's
         // filler hands frames out after `fill_gaps_max`, and a pass that lost a joint up to a
         // keyframe coasted), up to the next keyframe if any.
         if self.params.fill_gaps_max > 0 {
-            let end_row = match (&end, &boundary) {
-                (Some(e), Some(_)) => Some((next, e.row.clone())),
+            let end_row = match (end, &run.boundary) {
+                (Some(e), Some(_)) => Some((seg.next, e.row.clone())),
                 _ => None,
             };
-            let rows = out.iter().cloned().chain(end_row).collect();
+            let rows = run.out.iter().cloned().chain(end_row).collect();
             let filled = tracker.gap_filler().fill_all(rows);
-            for (row, (_, f)) in out.iter_mut().zip(filled) {
+            for (row, (_, f)) in run.out.iter_mut().zip(filled) {
                 row.1 = f;
             }
         }
-        // Rows from several passes, or a pass and its keyframe, may count turns differently.
-        for i in 1..out.len() {
-            let (done, rest) = out.split_at_mut(i);
-            for (e, p) in rest[0].1.iter_mut().zip(&done[i - 1].1) {
-                e.angle_rad = crate::run::segments::turns_near(p.angle_rad, e.angle_rad);
-            }
-        }
-        Ok((out, at_next.zip(boundary)))
     }
 }
 
-/// Runs `passes` (started on frame `first_frame`) over the `held` frames that follow it and
-/// the frame `last` after them, if any (the next key's: a pass hands rows out after it has seen
-/// the frames that follow them, so its rows on the held frames depend on it); `key_ahead(idx)`:
-/// whether a key of every joint lies on or beyond frame `idx` ([`Pass::step`]).
-fn run_over(
-    mut passes: Vec<Pass>,
-    first_frame: u64,
-    held: &[Frame],
-    last: Option<(u64, &Frame)>,
-    key_ahead: impl Fn(u64) -> bool,
-) -> Vec<Vec<(u64, Vec<JointEstimate>)>> {
-    let frames = held
-        .iter()
-        .enumerate()
-        .map(|(i, f)| (first_frame + 1 + i as u64, f));
-    for (idx, f) in frames.chain(last) {
-        for p in &mut passes {
-            p.step(idx, f, key_ahead(idx));
+/// Unwraps each row's angles near the row before's.
+fn align_turns(out: &mut [(u64, Vec<JointEstimate>)]) {
+    // Rows from several passes, or a pass and its keyframe, may count turns differently.
+    for i in 1..out.len() {
+        let (done, rest) = out.split_at_mut(i);
+        for (e, p) in rest[0].1.iter_mut().zip(&done[i - 1].1) {
+            e.angle_rad = crate::run::segments::turns_near(p.angle_rad, e.angle_rad);
         }
     }
-    passes.into_iter().map(Pass::finish).collect()
 }
 
 /// Puts a key's joints into a row: their positions, status `seed`, score 1.
@@ -512,11 +378,4 @@ pub(super) fn keyed_row(row: &mut [JointEstimate], key: &Key) {
             e.score = 1.0;
         }
     }
-}
-
-/// Whether a span judged early (from the carried pass and the one backward from the
-/// correction) needs no more tracker passes: Lucas–Kanade leads it (see [`keyed::Lead`]). A
-/// span in doubt runs them all: its joints go to the tracker where it landed nearer the keys.
-fn lean_enough(lead: Option<keyed::Lead>) -> bool {
-    lead == Some(keyed::Lead::Flow)
 }
